@@ -1,0 +1,71 @@
+"""The hand's stereo rig: camera 1 (reference, the paper's right camera) and camera 2."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from photomodel.camera._pinhole import PinholeCamera
+from photomodel.geometry import make_transform
+
+
+@dataclass(frozen=True)
+class StereoRig:
+    """Two calibrated cameras; ``R``, ``T`` map camera-1 to camera-2 coordinates.
+
+    ``X2 = R @ X1 + T`` (as ``cv2.stereoCalibrate`` returns), ``T`` in mm, so
+    ``T_cam2_cam1 = [[R, T], [0, 1]]``.
+    """
+
+    cam1: PinholeCamera
+    cam2: PinholeCamera
+    R: NDArray[np.float64]
+    T: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        R = np.asarray(self.R, dtype=np.float64).reshape(3, 3)
+        T = np.asarray(self.T, dtype=np.float64).reshape(3)
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+            raise ValueError("R: expected a rotation matrix (orthonormal, det +1)")
+        object.__setattr__(self, "R", R)
+        object.__setattr__(self, "T", T)
+
+    @property
+    def T_cam2_cam1(self) -> NDArray[np.float64]:
+        """(4, 4) transform from camera-1 to camera-2 coordinates."""
+        return make_transform(self.R, self.T)
+
+    @property
+    def cameras(self) -> tuple[PinholeCamera, PinholeCamera]:
+        """(cam1, cam2)."""
+        return self.cam1, self.cam2
+
+    def project_poses(
+        self, T_cam1_model: ArrayLike, points_model: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Project model points for many poses into both images at once.
+
+        Parameters
+        ----------
+        T_cam1_model : ndarray (P, 4, 4) or (4, 4)
+            Candidate poses of the model in camera 1's frame (mm).
+        points_model : ndarray (N, 3)
+            Points in the model frame (mm).
+
+        Returns
+        -------
+        uv1, uv2 : ndarray (P, N, 2)
+            Pixels in camera 1 and camera 2; NaN for points behind a camera.
+        """
+        T = np.asarray(T_cam1_model, dtype=np.float64)
+        squeeze = T.ndim == 2
+        T = T.reshape(-1, 4, 4)
+        pts = np.asarray(points_model, dtype=np.float64).reshape(-1, 3)
+        p1 = np.einsum("pij,nj->pni", T[:, :3, :3], pts) + T[:, None, :3, 3]
+        p2 = p1 @ self.R.T + self.T
+        uv1, uv2 = self.cam1.project(p1), self.cam2.project(p2)
+        if squeeze:
+            return uv1[0], uv2[0]
+        return uv1, uv2

@@ -1,0 +1,63 @@
+"""``photomodel build``: photo + background + camera -> model file and preview PNG."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from photomodel.camera import load_camera, load_distance_mm
+from photomodel.errors import InputError
+from photomodel.image import read_color_image, write_image
+from photomodel.model import BuildConfig, build_photo_model, render_preview, save_model
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    d = BuildConfig()
+    p = sub.add_parser("build", help="build a photo-model from a garment photo",
+                       description="Build a photo-model (paper sec. 2.2) from a photo of the "
+                                   "garment on the green plane and a photo of the plane alone.")
+    p.add_argument("--photo", required=True, type=Path, help="garment on the plane (BMP, PNG..)")
+    p.add_argument("--background", required=True, type=Path, help="the plane alone")
+    p.add_argument("--camera", required=True, type=Path,
+                   help="model camera calibration (OpenCV YAML/XML/JSON or ROS camera_info)")
+    p.add_argument("--distance-mm", type=float, default=None,
+                   help="camera-to-plane distance (default: the camera file's distance_mm, "
+                        "else 400)")
+    p.add_argument("--out", required=True, type=Path, help="model file to write (.npz)")
+    p.add_argument("--name", default=None, help="model name (default: the output file's stem)")
+    p.add_argument("--step-mm", type=float, default=d.step_mm, help="sampling pitch of S_in/S_out")
+    p.add_argument("--band-gap-mm", type=float, default=d.band_gap_mm,
+                   help="gap between the outline and S_out")
+    p.add_argument("--band-width-mm", type=float, default=d.band_width_mm,
+                   help="width of the S_out band")
+    p.add_argument("--hue-threshold-deg", type=float, default=d.hue_threshold_deg,
+                   help="hue error from the plane above which a pixel is garment")
+    p.add_argument("--no-preview", action="store_true", help="do not write the preview PNG")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    camera = load_camera(args.camera)
+    distance = args.distance_mm if args.distance_mm is not None else load_distance_mm(args.camera)
+    distance = 400.0 if distance is None else distance
+    if not distance > 0:
+        raise InputError("--distance-mm", f"expected a positive distance, got {distance}")
+    try:
+        config = BuildConfig(step_mm=args.step_mm, band_gap_mm=args.band_gap_mm,
+                             band_width_mm=args.band_width_mm,
+                             hue_threshold_deg=args.hue_threshold_deg)
+    except ValueError as exc:
+        raise InputError("build options", str(exc)) from None
+    photo = read_color_image(args.photo)
+    background = read_color_image(args.background)
+    name = args.name or (args.out.stem if args.out.suffix == ".npz" else args.out.name)
+    built = build_photo_model(photo, background, camera, distance, name=name, config=config,
+                              photo_source=args.photo, background_source=args.background)
+    preview = None if args.no_preview else render_preview(photo, built)
+    path = save_model(built.model, args.out)
+    if preview is not None:
+        write_image(path.with_suffix(".preview.png"), preview)
+    m = built.model
+    print(f"{path}: model '{m.name}', {m.size_mm[0]:.0f} x {m.size_mm[1]:.0f} mm, "
+          f"area {m.area_mm2:.0f} mm^2, S_in {m.n_in} points, S_out {m.n_out} points")
+    return 0

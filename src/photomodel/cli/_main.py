@@ -1,0 +1,47 @@
+"""Entry point and sub-command parsers of the ``photomodel`` command.
+
+Every :class:`~photomodel.errors.PhotomodelError` becomes one line on stderr
+(``photomodel: error: FILE: problem``) and exit code 2; nothing is half-written because all
+outputs are written atomically after the work succeeded.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from photomodel import __version__
+from photomodel.cli import _build, _demo, _locate
+from photomodel.errors import PhotomodelError
+
+EXIT_INPUT_ERROR = 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with all sub-commands."""
+    parser = argparse.ArgumentParser(
+        prog="photomodel",
+        description="Photo-model based garment recognition: build a model from one photo, "
+                    "find its 6-DoF pose in a stereo pair.",
+    )
+    parser.add_argument("--version", action="version", version=f"photomodel {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _build.add_parser(sub)
+    _locate.add_parser(sub)
+    _demo.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except PhotomodelError as exc:
+        print(f"photomodel: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
+    except KeyboardInterrupt:
+        print("photomodel: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,29 @@
+"""A rich progress bar on stderr for long searches, silent when stderr is not a terminal."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from photomodel.search import Optimizer
+
+
+@contextmanager
+def search_progress(label: str, enabled: bool) -> Iterator[Callable[[Optimizer], None] | None]:
+    """Yield a callback for ``locate(progress=...)`` that shows iterations and best fitness."""
+    if not enabled:
+        yield None
+        return
+    with Progress(TextColumn("{task.description}"), BarColumn(),
+                  TextColumn("iteration {task.completed:.0f}  best {task.fields[best]:.1f}"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(label, total=None, best=0.0)
+
+        def update(opt: Optimizer) -> None:
+            res = opt.result
+            bar.update(task, completed=res.iterations, best=res.fitness)
+
+        yield update

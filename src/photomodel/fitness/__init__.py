@@ -1,0 +1,17 @@
+"""Fitness functions over whole pose populations: the paper's eq. (9) and hue matching."""
+
+from photomodel.fitness._base import Fitness
+from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
+from photomodel.fitness._paper import FITNESS_VOTES, PaperFitness, PaperVotes, make_fitness
+
+__all__ = [
+    "FITNESS_VOTES",
+    "Fitness",
+    "HueMatch",
+    "PaperFitness",
+    "PaperVotes",
+    "hue_code_image",
+    "hue_codes",
+    "hue_codes_match",
+    "make_fitness",
+]

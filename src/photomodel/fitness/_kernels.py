@@ -1,0 +1,79 @@
+"""Numba kernel of the paper's fitness: project, look up and vote for a whole population."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True, inline="always")
+def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
+    if Z <= 0.0:
+        return -1.0e9, -1.0e9
+    x = X / Z
+    y = Y / Z
+    r2 = x * x + y * y
+    radial = (1.0 + r2 * (D[0] + r2 * (D[1] + r2 * D[4]))) / (
+        1.0 + r2 * (D[5] + r2 * (D[6] + r2 * D[7])))
+    xd = x * radial + 2.0 * D[2] * x * y + D[3] * (r2 + 2.0 * x * x) + D[8] * r2 + D[9] * r2 * r2
+    yd = y * radial + D[2] * (r2 + 2.0 * y * y) + 2.0 * D[3] * x * y + D[10] * r2 + D[11] * r2 * r2
+    return K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]
+
+
+@njit(cache=True, inline="always")
+def _matches(code_img, code_model, thr):  # pragma: no cover - compiled
+    if code_model < 0.0:
+        return code_img < 0.0
+    if code_img < 0.0:
+        return False
+    d = abs(code_img - code_model)
+    if d > 180.0:
+        d = 360.0 - d
+    return d <= thr
+
+
+@njit(cache=True)
+def _count(R, t, K, D, pts, codes, img, thr):  # pragma: no cover - compiled
+    h, w = img.shape
+    n = 0
+    for j in range(pts.shape[0]):
+        X = R[0, 0] * pts[j, 0] + R[0, 1] * pts[j, 1] + R[0, 2] * pts[j, 2] + t[0]
+        Y = R[1, 0] * pts[j, 0] + R[1, 1] * pts[j, 1] + R[1, 2] * pts[j, 2] + t[1]
+        Z = R[2, 0] * pts[j, 0] + R[2, 1] * pts[j, 1] + R[2, 2] * pts[j, 2] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        iu = int(np.floor(u + 0.5))
+        iv = int(np.floor(v + 0.5))
+        if iu < 0 or iv < 0 or iu >= w or iv >= h:
+            continue
+        if _matches(img[iv, iu], codes[j], thr):
+            n += 1
+    return n
+
+
+@njit(cache=True, parallel=True)
+def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, p_out, c_out,
+                         img1, img2, thr, vote_in, vote_out, out_f, out_counts
+                         ):  # pragma: no cover - compiled
+    """Fill ``out_f`` (P,) with eq. (9) and ``out_counts`` (P, 4) with the match counts.
+
+    Counts per pose: [S_in matches cam 1, S_out matches cam 1, S_in cam 2, S_out cam 2].
+    """
+    for p in prange(Rs.shape[0]):
+        R1 = Rs[p]
+        t1 = ts[p]
+        R2 = np.empty((3, 3))
+        t2 = np.empty(3)
+        for i in range(3):
+            t2[i] = T21[i]
+            for k in range(3):
+                t2[i] += R21[i, k] * t1[k]
+                R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
+        a = _count(R1, t1, K1, D1, p_in, c_in, img1, thr)
+        b = _count(R1, t1, K1, D1, p_out, c_out, img1, thr)
+        c = _count(R2, t2, K2, D2, p_in, c_in, img2, thr)
+        d = _count(R2, t2, K2, D2, p_out, c_out, img2, thr)
+        out_counts[p, 0] = a
+        out_counts[p, 1] = b
+        out_counts[p, 2] = c
+        out_counts[p, 3] = d
+        out_f[p] = ((vote_in * a - vote_out * b) + (vote_in * c - vote_out * d)) / 2.0

@@ -1,0 +1,21 @@
+"""Rigid transforms and pose parametrisations (``T_a_b`` maps frame b to frame a)."""
+
+from photomodel.geometry._pose import (
+    eps_from_rotation,
+    in_plane_angle_rad,
+    pose_vectors_to_matrices,
+    quat_wxyz_from_matrix,
+    rotation_from_eps,
+)
+from photomodel.geometry._transforms import invert_transform, make_transform, transform_points
+
+__all__ = [
+    "eps_from_rotation",
+    "in_plane_angle_rad",
+    "invert_transform",
+    "make_transform",
+    "pose_vectors_to_matrices",
+    "quat_wxyz_from_matrix",
+    "rotation_from_eps",
+    "transform_points",
+]

@@ -1,0 +1,64 @@
+"""The paper's pose vector (x, y, z, eps1, eps2, eps3) and conversions.
+
+``eps`` is the vector part of a unit quaternion whose scalar part ``w`` is taken non-negative,
+``w = sqrt(1 - |eps|^2)``, so every rotation of angle below 180 deg has exactly one ``eps``.
+Quaternions elsewhere are ``quat_wxyz``; scipy's ``Rotation`` (which uses x, y, z, w order
+internally) does the conversions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+
+def rotation_from_eps(eps: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) from quaternion vector parts ``eps`` (..., 3), |eps| <= 1.
+
+    Computed in closed form (no scipy call) because it runs on whole GA populations.
+    """
+    e = np.asarray(eps, dtype=np.float64)
+    x, y, z = e[..., 0], e[..., 1], e[..., 2]
+    w = np.sqrt(np.clip(1.0 - (x * x + y * y + z * z), 0.0, None))
+    R = np.empty(e.shape[:-1] + (3, 3))
+    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    R[..., 0, 1] = 2 * (x * y - z * w)
+    R[..., 0, 2] = 2 * (x * z + y * w)
+    R[..., 1, 0] = 2 * (x * y + z * w)
+    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    R[..., 1, 2] = 2 * (y * z - x * w)
+    R[..., 2, 0] = 2 * (x * z - y * w)
+    R[..., 2, 1] = 2 * (y * z + x * w)
+    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def pose_vectors_to_matrices(poses: ArrayLike) -> NDArray[np.float64]:
+    """Transforms ``T_cam1_model`` (N, 4, 4) from pose vectors (N, 6) = (x, y, z, eps1..3), mm."""
+    p = np.atleast_2d(np.asarray(poses, dtype=np.float64))
+    if p.shape[-1] != 6:
+        raise ValueError(f"poses: expected shape (N, 6), got {p.shape}")
+    T = np.zeros(p.shape[:-1] + (4, 4))
+    T[..., :3, :3] = rotation_from_eps(p[..., 3:])
+    T[..., :3, 3] = p[..., :3]
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def quat_wxyz_from_matrix(R: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion (4,) in (w, x, y, z) order with w >= 0 from a rotation (3, 3)."""
+    x, y, z, w = Rotation.from_matrix(np.asarray(R, dtype=np.float64)[:3, :3]).as_quat()
+    q = np.array([w, x, y, z])
+    return -q if q[0] < 0 else q
+
+
+def eps_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion vector part (3,) with non-negative scalar part, inverse of rotation_from_eps."""
+    return quat_wxyz_from_matrix(R)[1:]
+
+
+def in_plane_angle_rad(R: ArrayLike) -> float:
+    """Angle of the model x axis about camera 1's z axis: atan2(R[1, 0], R[0, 0]), radians."""
+    R = np.asarray(R, dtype=np.float64)
+    return float(np.arctan2(R[1, 0], R[0, 0]))

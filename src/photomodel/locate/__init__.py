@@ -1,0 +1,11 @@
+"""Locating a photo-model in a stereo pair: the search loop, the result, the overlay."""
+
+from photomodel.locate._locate import (
+    DEFAULT_MIN_SCORE,
+    LocateResult,
+    locate,
+    make_optimizer,
+)
+from photomodel.locate._overlay import draw_overlay
+
+__all__ = ["DEFAULT_MIN_SCORE", "LocateResult", "draw_overlay", "locate", "make_optimizer"]

@@ -1,0 +1,54 @@
+"""Overlay picture: the found model outline drawn on both images side by side."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from photomodel.camera import StereoRig
+from photomodel.model import PhotoModel
+
+__all__ = ["draw_overlay"]
+
+
+def draw_overlay(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+                 left_bgr: NDArray[np.uint8], T_cam1_model: NDArray[np.float64],
+                 caption: str = "") -> NDArray[np.uint8]:
+    """Left image | right image with the model outline, S_in points and axes at the pose.
+
+    The left (camera 2) image is drawn on the left, as a person sees the scene.
+    """
+    uv1, uv2 = rig.project_poses(T_cam1_model, model.outline_mm)
+    in1, in2 = rig.project_poses(T_cam1_model, model.points_in_mm)
+    axes = np.array([[0, 0, 0], [40, 0, 0], [0, 40, 0]], dtype=np.float64)
+    ax1, ax2 = rig.project_poses(T_cam1_model, axes)
+    panels = []
+    for img, uv, pin, ax, label in ((left_bgr, uv2, in2, ax2, "left (camera 2)"),
+                                    (right_bgr, uv1, in1, ax1, "right (camera 1)")):
+        out = img.copy()
+        ok = np.isfinite(pin).all(axis=1)
+        for u, v in np.rint(pin[ok]).astype(int)[::2]:
+            cv2.circle(out, (int(u), int(v)), 1, (255, 255, 0), -1)
+        if np.isfinite(uv).all():
+            cv2.polylines(out, [np.rint(uv).astype(np.int32).reshape(-1, 1, 2)], True,
+                          (0, 255, 255), 2, cv2.LINE_AA)
+        if np.isfinite(ax).all():
+            o, x, y = (tuple(int(c) for c in np.rint(p)) for p in ax)
+            cv2.arrowedLine(out, o, x, (0, 0, 255), 2, cv2.LINE_AA)
+            cv2.arrowedLine(out, o, y, (0, 200, 0), 2, cv2.LINE_AA)
+        _text(out, label, (8, 20))
+        panels.append(out)
+    h = max(p.shape[0] for p in panels)
+    panels = [cv2.copyMakeBorder(p, 0, h - p.shape[0], 0, 0, cv2.BORDER_CONSTANT) for p in panels]
+    sheet = np.concatenate([panels[0], np.zeros((h, 6, 3), np.uint8), panels[1]], axis=1)
+    if caption:
+        bar = np.zeros((28, sheet.shape[1], 3), np.uint8)
+        _text(bar, caption, (8, 19))
+        sheet = np.concatenate([sheet, bar], axis=0)
+    return sheet
+
+
+def _text(img: NDArray[np.uint8], text: str, org: tuple[int, int]) -> None:
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)

@@ -1,0 +1,47 @@
+"""Preview picture of a photo-model: mask, S_in, S_out and outline over the model photo."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from photomodel.model._build import BuildResult
+
+_IN_BGR = (255, 255, 0)  # cyan
+_OUT_BGR = (255, 0, 255)  # magenta
+_OUTLINE_BGR = (0, 255, 255)  # yellow
+
+
+def render_preview(photo_bgr: NDArray[np.uint8], built: BuildResult, scale: int = 2
+                   ) -> NDArray[np.uint8]:
+    """Draw the build result over the photo (upscaled ``scale`` times) with a legend.
+
+    Returns a BGR image; the mask is darkened outside, S_in points are cyan, S_out points
+    magenta and the outline yellow.
+    """
+    img = cv2.resize(photo_bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+    mask = cv2.resize(built.mask.astype(np.uint8), None, fx=scale, fy=scale,
+                      interpolation=cv2.INTER_NEAREST).astype(bool)
+    img[~mask] = (img[~mask] * 0.45).astype(np.uint8)
+
+    def px(uv: NDArray[np.float64]) -> NDArray[np.int32]:
+        return np.rint((uv + 0.5) * scale - 0.5).astype(np.int32)
+
+    cv2.polylines(img, [px(built.uv_outline).reshape(-1, 1, 2)], True, _OUTLINE_BGR, 1,
+                  cv2.LINE_AA)
+    for (u, v) in px(built.uv_out):
+        cv2.circle(img, (int(u), int(v)), 1, _OUT_BGR, -1)
+    for (u, v) in px(built.uv_in):
+        cv2.circle(img, (int(u), int(v)), 1, _IN_BGR, -1)
+    m = built.model
+    lines = [
+        f"{m.name}: S_in {m.n_in} pts (cyan), S_out {m.n_out} pts (magenta), outline (yellow)",
+        f"size {m.size_mm[0]:.0f} x {m.size_mm[1]:.0f} mm, area {m.area_mm2:.0f} mm^2",
+    ]
+    for i, text in enumerate(lines):
+        org = (8, 20 + 20 * i)
+        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1,
+                    cv2.LINE_AA)
+    return img
