@@ -11,7 +11,14 @@ from photomodel.camera import load_stereo
 from photomodel.cli._progress import search_progress
 from photomodel.errors import InputError
 from photomodel.image import read_color_image, write_image
-from photomodel.locate import DEFAULT_MIN_SCORE, LocateResult, draw_overlay, locate
+from photomodel.fitness import FITNESS_PRESETS
+from photomodel.locate import (
+    DEFAULT_FITNESS,
+    DEFAULT_MIN_SCORE,
+    LocateResult,
+    draw_overlay,
+    locate,
+)
 from photomodel.model import load_model
 from photomodel.search import GAConfig, SearchSpace
 
@@ -28,6 +35,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
     p.add_argument("--optimizer", choices=("ga", "full"), default="ga",
                    help="the paper's binary GA (default) or full grid search")
+    p.add_argument("--fitness", choices=sorted(FITNESS_PRESETS), default=DEFAULT_FITNESS,
+                   help=f"fitness function (default {DEFAULT_FITNESS})")
+    p.add_argument("--no-refine", action="store_true",
+                   help="skip the local refinement after the global search")
+    p.add_argument("--paper", action="store_true",
+                   help="the paper's method as read here: paper fitness, plain binary GA "
+                        "without restarts, no refinement")
     p.add_argument("--generations", type=int, default=GAConfig().max_generations,
                    help="GA: most generations")
     p.add_argument("--x-mm", type=float, nargs=2, default=(-255.0, 255.0), metavar=("LO", "HI"))
@@ -43,10 +57,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.generations < 1:
+        raise InputError("--generations", f"expected a positive count, got {args.generations}")
     try:
         space = SearchSpace.from_ranges(tuple(args.x_mm), tuple(args.y_mm), tuple(args.z_mm),
                                         args.theta_deg, args.tilt_deg)
-        ga = GAConfig(max_generations=args.generations)
+        ga = (GAConfig.paper if args.paper else GAConfig)(max_generations=args.generations)
     except ValueError as exc:
         raise InputError("search space", str(exc)) from None
     model = load_model(args.model)
@@ -56,8 +72,10 @@ def run(args: argparse.Namespace) -> int:
     rig.cam1.check_image(right, str(args.right))
     rig.cam2.check_image(left, str(args.left))
     with search_progress(f"locating {model.name}", enabled=sys.stderr.isatty()) as progress:
-        result = locate(model, rig, right, left, optimizer=args.optimizer, rng=args.seed,
-                        space=space, min_score=args.min_score, ga_config=ga, progress=progress)
+        result = locate(model, rig, right, left, optimizer=args.optimizer,
+                        fitness="paper" if args.paper else args.fitness,
+                        refine=not (args.paper or args.no_refine), rng=args.seed, space=space,
+                        min_score=args.min_score, ga_config=ga, progress=progress)
     if args.overlay is not None:
         caption = (f"{model.name}: {'found' if result.found else 'NOT found'}  score "
                    f"{result.score:.2f}  xyz {format_xyz(result)} mm  theta "

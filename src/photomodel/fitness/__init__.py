@@ -2,10 +2,10 @@
 
 from photomodel.fitness._base import Fitness
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
-from photomodel.fitness._paper import FITNESS_VOTES, PaperFitness, PaperVotes, make_fitness
+from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
 
 __all__ = [
-    "FITNESS_VOTES",
+    "FITNESS_PRESETS",
     "Fitness",
     "HueMatch",
     "PaperFitness",

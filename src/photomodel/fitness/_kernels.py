@@ -21,10 +21,10 @@ def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _matches(code_img, code_model, thr):  # pragma: no cover - compiled
+def _matches(code_img, sat_img, code_model, min_sat, thr):  # pragma: no cover - compiled
     if code_model < 0.0:
         return code_img < 0.0
-    if code_img < 0.0:
+    if code_img < 0.0 or sat_img < min_sat:
         return False
     d = abs(code_img - code_model)
     if d > 180.0:
@@ -33,7 +33,7 @@ def _matches(code_img, code_model, thr):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _count(R, t, K, D, pts, codes, img, thr):  # pragma: no cover - compiled
+def _count(R, t, K, D, pts, codes, min_sat, img, sat, thr):  # pragma: no cover - compiled
     h, w = img.shape
     n = 0
     for j in range(pts.shape[0]):
@@ -45,16 +45,19 @@ def _count(R, t, K, D, pts, codes, img, thr):  # pragma: no cover - compiled
         iv = int(np.floor(v + 0.5))
         if iu < 0 or iv < 0 or iu >= w or iv >= h:
             continue
-        if _matches(img[iv, iu], codes[j], thr):
+        if _matches(img[iv, iu], sat[iv, iu], codes[j], min_sat[j], thr):
             n += 1
     return n
 
 
 @njit(cache=True, parallel=True)
-def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, p_out, c_out,
-                         img1, img2, thr, vote_in, vote_out, out_f, out_counts
+def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, s_in, p_out, c_out,
+                         s_out, img1, sat1, img2, sat2, thr, vote_in, vote_out, out_f, out_counts
                          ):  # pragma: no cover - compiled
     """Fill ``out_f`` (P,) with eq. (9) and ``out_counts`` (P, 4) with the match counts.
+
+    ``c_*`` are the model points' hue codes and ``s_*`` the least image saturation each
+    accepts; ``img*`` are hue-code images and ``sat*`` saturation images.
 
     Counts per pose: [S_in matches cam 1, S_out matches cam 1, S_in cam 2, S_out cam 2].
     """
@@ -68,10 +71,10 @@ def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, p_out, c_
             for k in range(3):
                 t2[i] += R21[i, k] * t1[k]
                 R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
-        a = _count(R1, t1, K1, D1, p_in, c_in, img1, thr)
-        b = _count(R1, t1, K1, D1, p_out, c_out, img1, thr)
-        c = _count(R2, t2, K2, D2, p_in, c_in, img2, thr)
-        d = _count(R2, t2, K2, D2, p_out, c_out, img2, thr)
+        a = _count(R1, t1, K1, D1, p_in, c_in, s_in, img1, sat1, thr)
+        b = _count(R1, t1, K1, D1, p_out, c_out, s_out, img1, sat1, thr)
+        c = _count(R2, t2, K2, D2, p_in, c_in, s_in, img2, sat2, thr)
+        d = _count(R2, t2, K2, D2, p_out, c_out, s_out, img2, sat2, thr)
         out_counts[p, 0] = a
         out_counts[p, 1] = b
         out_counts[p, 2] = c

@@ -32,7 +32,7 @@ from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_cod
 from photomodel.geometry import pose_vectors_to_matrices
 from photomodel.model import PhotoModel
 
-__all__ = ["FITNESS_VOTES", "PaperFitness", "PaperVotes", "make_fitness"]
+__all__ = ["FITNESS_PRESETS", "PaperFitness", "PaperVotes", "make_fitness"]
 
 Backend = Literal["numba", "numpy"]
 
@@ -50,14 +50,15 @@ class PaperVotes:
     balance_outside: bool = False
 
 
-FITNESS_VOTES: dict[str, PaperVotes] = {
-    # The paper's rule as read here (module docstring).
-    "paper": PaperVotes(2.0, 0.005),
+FITNESS_PRESETS: dict[str, tuple[PaperVotes, HueMatch]] = {
+    # The paper's rule as read here (module docstring): hue alone.
+    "paper": (PaperVotes(2.0, 0.005), HueMatch()),
     # Eq. (9) with inner and outer terms of equal total weight: a model shrunk, shifted or
     # pushed away so that part of its band lies on the garment loses as much as one whose
     # inside leaves the garment. With the paper's 400:1 ratio a plain garment's model can be
-    # shrunk (z too large) at almost no cost, which the GA cannot resolve.
-    "balanced": PaperVotes(1.0, 1.0, balance_outside=True),
+    # shrunk (z too large) at almost no cost. The hue match also asks for half the model
+    # point's saturation, which puts blurred edges where they are (see HueMatch).
+    "balanced": (PaperVotes(1.0, 1.0, balance_outside=True), HueMatch(relative_saturation=0.5)),
 }
 
 
@@ -82,7 +83,7 @@ class PaperFitness:
                  name: str = "paper") -> None:
         self.name = name
         self.match = match or HueMatch()
-        self.votes = votes or FITNESS_VOTES["paper"]
+        self.votes = votes or FITNESS_PRESETS["paper"][0]
         if backend not in ("numba", "numpy"):
             raise ValueError(f"backend: expected 'numba' or 'numpy', got {backend!r}")
         self.backend = backend
@@ -91,12 +92,13 @@ class PaperFitness:
         self.images = (hue_code_image(right_bgr, self.match), hue_code_image(left_bgr, self.match))
         self.p_in = np.ascontiguousarray(model.points_in_mm, dtype=np.float64)
         self.c_in = hue_codes(model.hsv_in, self.match)
+        self.s_in = (self.match.relative_saturation * model.hsv_in[:, 1]).astype(np.float64)
         self.p_out = np.ascontiguousarray(model.points_out_mm, dtype=np.float64)
+        nearest = np.zeros(0, dtype=np.int64)
         if model.n_out:
             _, nearest = cKDTree(model.points_in_mm[:, :2]).query(model.points_out_mm[:, :2])
-            self.c_out = np.ascontiguousarray(self.c_in[nearest])
-        else:
-            self.c_out = np.zeros(0, dtype=np.float32)
+        self.c_out = np.ascontiguousarray(self.c_in[nearest])
+        self.s_out = np.ascontiguousarray(self.s_in[nearest])
         self.last_counts: NDArray[np.int64] = np.zeros((0, 4), dtype=np.int64)
         self._vote_out = self.votes.outside
         if self.votes.balance_outside and model.n_out:
@@ -138,41 +140,50 @@ class PaperFitness:
         paper_fitness_kernel(
             np.ascontiguousarray(T[:, :3, :3]), np.ascontiguousarray(T[:, :3, 3]),
             self.rig.R, self.rig.T, c1.K, c1.distortion12, c2.K, c2.distortion12,
-            self.p_in, self.c_in.astype(np.float64), self.p_out, self.c_out.astype(np.float64),
-            self.images[0], self.images[1], float(self.match.hue_threshold_deg),
+            self.p_in, self.c_in.astype(np.float64), self.s_in,
+            self.p_out, self.c_out.astype(np.float64), self.s_out,
+            *self.images[0], *self.images[1], float(self.match.hue_threshold_deg),
             float(self.votes.inside), float(self._vote_out), f, counts)
         return f, counts
 
     def _numpy(self, T: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         counts = np.zeros((len(T), 4), dtype=np.int64)
-        for k, (pts, codes) in enumerate(((self.p_in, self.c_in), (self.p_out, self.c_out))):
+        sets = ((self.p_in, self.c_in, self.s_in), (self.p_out, self.c_out, self.s_out))
+        for k, (pts, codes, min_sat) in enumerate(sets):
             if len(pts) == 0:
                 continue
             uv1, uv2 = self.rig.project_poses(T, pts)
             for cam, (uv, img) in enumerate(zip((uv1, uv2), self.images, strict=True)):
-                counts[:, 2 * cam + k] = self._count(uv, codes, img)
+                counts[:, 2 * cam + k] = self._count(uv, codes, min_sat, img)
         vi, vo = self.votes.inside, self._vote_out
         f = ((vi * counts[:, 0] - vo * counts[:, 1]) + (vi * counts[:, 2] - vo * counts[:, 3])) / 2.0
         return f, counts
 
     def _count(self, uv: NDArray[np.float64], codes: NDArray[np.float32],
-               img: NDArray[np.float32]) -> NDArray[np.int64]:
-        h, w = img.shape
+               min_sat: NDArray[np.float64],
+               img: tuple[NDArray[np.float32], NDArray[np.float32]]) -> NDArray[np.int64]:
+        codes_img, sat_img = img
+        h, w = codes_img.shape
         with np.errstate(invalid="ignore"):
             iu = np.floor(np.nan_to_num(uv[..., 0], nan=-1e9) + 0.5)
             iv = np.floor(np.nan_to_num(uv[..., 1], nan=-1e9) + 0.5)
         inside = (iu >= 0) & (iv >= 0) & (iu < w) & (iv < h)
         pix = np.full(iu.shape, np.nan, dtype=np.float64)
-        pix[inside] = img[iv[inside].astype(np.int64), iu[inside].astype(np.int64)]
+        sat = np.zeros(iu.shape, dtype=np.float64)
+        rows, cols = iv[inside].astype(np.int64), iu[inside].astype(np.int64)
+        pix[inside] = codes_img[rows, cols]
+        sat[inside] = sat_img[rows, cols]
         ok = inside & hue_codes_match(pix, np.broadcast_to(codes, iu.shape),
-                                      self.match.hue_threshold_deg)
+                                      self.match.hue_threshold_deg, sat,
+                                      np.broadcast_to(min_sat, iu.shape))
         return ok.sum(axis=1)
 
 
 def make_fitness(name: str, model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
                  left_bgr: NDArray[np.uint8], **kw: object) -> PaperFitness:
-    """The named fitness (a key of ``FITNESS_VOTES``) for one model and stereo pair."""
-    if name not in FITNESS_VOTES:
-        raise ValueError(f"fitness: expected one of {sorted(FITNESS_VOTES)}, got {name!r}")
-    return PaperFitness(model, rig, right_bgr, left_bgr, votes=FITNESS_VOTES[name], name=name,
+    """The named fitness (a key of ``FITNESS_PRESETS``) for one model and stereo pair."""
+    if name not in FITNESS_PRESETS:
+        raise ValueError(f"fitness: expected one of {sorted(FITNESS_PRESETS)}, got {name!r}")
+    votes, match = FITNESS_PRESETS[name]
+    return PaperFitness(model, rig, right_bgr, left_bgr, votes=votes, match=match, name=name,
                         **kw)  # type: ignore[arg-type]

@@ -1,6 +1,7 @@
 """Locating a photo-model in a stereo pair: the search loop, the result, the overlay."""
 
 from photomodel.locate._locate import (
+    DEFAULT_FITNESS,
     DEFAULT_MIN_SCORE,
     LocateResult,
     locate,
@@ -8,4 +9,4 @@ from photomodel.locate._locate import (
 )
 from photomodel.locate._overlay import draw_overlay
 
-__all__ = ["DEFAULT_MIN_SCORE", "LocateResult", "draw_overlay", "locate", "make_optimizer"]
+__all__ = ["DEFAULT_FITNESS", "DEFAULT_MIN_SCORE", "LocateResult", "draw_overlay", "locate", "make_optimizer"]

@@ -19,13 +19,15 @@ from photomodel.search import (
     FullSearch,
     FullSearchConfig,
     GAConfig,
+    GlobalThenLocal,
     Optimizer,
+    RefineConfig,
     SearchResult,
     SearchSpace,
     run_search,
 )
 
-__all__ = ["DEFAULT_MIN_SCORE", "LocateResult", "locate", "make_optimizer"]
+__all__ = ["DEFAULT_FITNESS", "DEFAULT_MIN_SCORE", "LocateResult", "locate", "make_optimizer"]
 
 DEFAULT_MIN_SCORE = 0.5
 """Score above which the garment counts as found: at the true pose about 0.8-0.95 of the
@@ -33,7 +35,7 @@ S_in points match in both images, on a garment-free table well under 0.3 do."""
 
 OptimizerName = Literal["ga", "full"]
 
-DEFAULT_FITNESS = "paper"
+DEFAULT_FITNESS = "balanced"
 
 
 @dataclass(frozen=True)
@@ -101,11 +103,13 @@ def locate(
     *,
     optimizer: OptimizerName = "ga",
     fitness: str = DEFAULT_FITNESS,
+    refine: bool = True,
     rng: int | np.random.Generator | None = None,
     space: SearchSpace | None = None,
     min_score: float = DEFAULT_MIN_SCORE,
     ga_config: GAConfig | None = None,
     full_config: FullSearchConfig | None = None,
+    refine_config: RefineConfig | None = None,
     progress: Callable[[Optimizer], None] | None = None,
 ) -> LocateResult:
     """Search the pose ``T_cam1_model`` of ``model`` that best explains both images.
@@ -120,7 +124,9 @@ def locate(
     optimizer : {"ga", "full"}
         The paper's binary GA (default) or the full grid search.
     fitness : {"paper", "balanced"}
-        The named fitness (:data:`photomodel.fitness.FITNESS_VOTES`).
+        The named fitness (:data:`photomodel.fitness.FITNESS_PRESETS`).
+    refine : bool
+        Follow the global search with :class:`~photomodel.search.LocalRefine`.
     rng : int, Generator or None
         Seed of the stochastic search.
     space : SearchSpace, optional
@@ -138,8 +144,11 @@ def locate(
     rig.cam2.check_image(left_bgr, "left image")
     t0 = time.perf_counter()
     objective = make_fitness(fitness, model, rig, right_bgr, left_bgr)
-    opt = make_optimizer(optimizer, space or SearchSpace.from_ranges(), rng, ga_config,
-                         full_config)
+    space = space or SearchSpace.from_ranges()
+    gen = np.random.default_rng(rng)
+    opt = make_optimizer(optimizer, space, gen, ga_config, full_config)
+    if refine:
+        opt = GlobalThenLocal(opt, space, refine_config, gen)
     result = run_search(opt, objective, progress)
     seconds = time.perf_counter() - t0
     T = pose_vectors_to_matrices(result.x)[0]

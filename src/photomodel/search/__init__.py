@@ -3,6 +3,7 @@
 from photomodel.search._base import Optimizer, SearchResult, run_search
 from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
+from photomodel.search._refine import GlobalThenLocal, LocalRefine, RefineConfig
 from photomodel.search._space import GENE_NAMES, SearchSpace
 
 OPTIMIZERS = {"ga": BinaryGA, "full": FullSearch}
@@ -14,7 +15,10 @@ __all__ = [
     "FullSearch",
     "FullSearchConfig",
     "GAConfig",
+    "GlobalThenLocal",
+    "LocalRefine",
     "Optimizer",
+    "RefineConfig",
     "SearchResult",
     "SearchSpace",
     "run_search",
