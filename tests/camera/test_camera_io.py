@@ -29,12 +29,6 @@ RVEC = np.array([0.013, -0.174, 0.004])
 R = cv2.Rodrigues(RVEC)[0]
 T = np.array([119.54, -0.31, 10.47])
 
-FILE_STORAGE_BROKEN = pytest.mark.xfail(
-    strict=True,
-    raises=SystemError,
-    reason="with OpenCV 5.0 a failing cv2.FileStorage(...) constructor raises SystemError "
-           "(cv2.error only as its __cause__), which camera._io._open does not catch",
-)
 
 
 def _camera() -> PinholeCamera:
@@ -246,7 +240,6 @@ def test_directory_instead_of_file(tmp_path: Path) -> None:
     _assert_input_error(info, tmp_path)
 
 
-@FILE_STORAGE_BROKEN
 @pytest.mark.parametrize("fmt", FORMATS)
 @pytest.mark.parametrize("loader", [load_camera, load_stereo], ids=["camera", "stereo"])
 def test_garbage_bytes(tmp_path: Path, fmt: str, loader) -> None:
@@ -257,7 +250,6 @@ def test_garbage_bytes(tmp_path: Path, fmt: str, loader) -> None:
     _assert_input_error(info, path)
 
 
-@FILE_STORAGE_BROKEN
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_empty_file(tmp_path: Path, fmt: str) -> None:
     path = tmp_path / f"calib.{fmt}"
@@ -267,7 +259,6 @@ def test_empty_file(tmp_path: Path, fmt: str) -> None:
     _assert_input_error(info, path)
 
 
-@FILE_STORAGE_BROKEN
 def test_text_that_is_not_yaml(tmp_path: Path) -> None:
     path = tmp_path / "calib.yaml"
     path.write_text("This is a note about the calibration, not the calibration itself.\n")

@@ -144,9 +144,6 @@ def test_undistort_pixels_with_skew_and_distortion_inverts_project() -> None:
     np.testing.assert_allclose(xy, points[:, :2] / points[:, 2:], rtol=0, atol=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="undistort_pixels returns cv2.undistortPoints' result "
-                   "unchanged when there is no distortion, and OpenCV ignores the skew K[0, 1] "
-                   "that project() applies")
 def test_undistort_pixels_with_skew_and_no_distortion_inverts_project() -> None:
     K = K_TEST.copy()
     K[0, 1] = 1.5
@@ -177,9 +174,6 @@ def test_invalid_K_raises_value_error(K: np.ndarray) -> None:
         PinholeCamera(K, np.zeros(5))
 
 
-@pytest.mark.xfail(strict=True, reason="PinholeCamera accepts a K that is not of the form "
-                   "[[fx, s, cx], [0, fy, cy], [0, 0, 1]]; project() silently ignores K[1, 0] "
-                   "and the last row while undistort_pixels uses inv(K)")
 @pytest.mark.parametrize("entry", [(1, 0), (2, 0), (2, 2)])
 def test_K_not_upper_triangular_with_unit_corner_raises(entry: tuple[int, int]) -> None:
     K = K_TEST.copy()

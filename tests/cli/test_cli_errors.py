@@ -37,13 +37,6 @@ GENERATIONS = "30"  # keeps locate fast; accuracy is tested elsewhere
 LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
                "fitness", "score", "seconds"}
 
-CALIBRATION_NOT_PARSED = pytest.mark.xfail(
-    strict=True,
-    raises=SystemError,
-    reason="with OpenCV 5.0 a failing cv2.FileStorage(...) constructor raises SystemError "
-           "(cv2.error only as its __cause__); camera._io._open catches only cv2.error, so the "
-           "CLI ends in a traceback with exit code 1",
-)
 
 
 @dataclass(frozen=True)
@@ -175,7 +168,6 @@ def test_build_camera_file_without_camera_matrix(capsys, data: CliData, tmp_path
     assert "camera_matrix" in line
 
 
-@CALIBRATION_NOT_PARSED
 @pytest.mark.parametrize("content", ["text", "binary"])
 def test_build_camera_file_that_is_not_yaml(capsys, data: CliData, tmp_path: Path,
                                             content: str) -> None:
@@ -227,9 +219,6 @@ def test_build_writes_model_and_one_line_summary(capsys, data: CliData, tmp_path
     assert not [n for n in names if n.startswith(".")], names  # no temporary left behind
 
 
-@pytest.mark.xfail(strict=True, raises=FileExistsError,
-                   reason="build does not check --out: Path.mkdir of a parent that is an "
-                          "existing file raises FileExistsError, printed as a traceback")
 def test_build_out_below_a_file(capsys, data: CliData, tmp_path: Path) -> None:
     blocker = tmp_path / "out"
     blocker.write_text("not a directory")
@@ -239,10 +228,6 @@ def test_build_out_below_a_file(capsys, data: CliData, tmp_path: Path) -> None:
     assert len(err.strip().splitlines()) == 1 and blocker.name in err
 
 
-@pytest.mark.xfail(strict=True, raises=IsADirectoryError,
-                   reason="build --out naming an existing directory: os.replace raises "
-                          "IsADirectoryError (traceback) and leaves the temporary "
-                          "'.model.npz.tmp' behind")
 def test_build_out_is_a_directory(capsys, data: CliData, tmp_path: Path) -> None:
     out_dir = tmp_path / "out"
     (out_dir / "model.npz").mkdir(parents=True)
@@ -335,7 +320,6 @@ def test_locate_missing_stereo(capsys, data: CliData, tmp_path: Path) -> None:
     _locate_error(capsys, data, tmp_path, stereo, stereo=stereo)
 
 
-@CALIBRATION_NOT_PARSED
 def test_locate_stereo_that_is_not_yaml(capsys, data: CliData, tmp_path: Path) -> None:
     stereo = _random_bytes(tmp_path / "garbage_stereo.yaml")
     _locate_error(capsys, data, tmp_path, stereo, stereo=stereo)
@@ -371,9 +355,6 @@ def test_locate_greyscale_right_image(capsys, data: CliData, tmp_path: Path) -> 
     _locate_error(capsys, data, tmp_path, right, right=right)
 
 
-@pytest.mark.xfail(strict=True, raises=cv2.error,
-                   reason="locate does not check --overlay before the search; cv2.imencode "
-                          "raises cv2.error for an unknown suffix, printed as a traceback")
 def test_locate_overlay_with_unknown_suffix(capsys, data: CliData, tmp_path: Path) -> None:
     out_dir = tmp_path / "out"
     overlay = out_dir / "overlay.xyz"

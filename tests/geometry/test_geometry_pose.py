@@ -64,7 +64,7 @@ def _rot_x(angle: float) -> np.ndarray:
 @SETTINGS
 @given(q=quats_wxyz(min_w=1e-4))
 def test_rotation_from_eps_matches_scipy(q: np.ndarray) -> None:
-    np.testing.assert_allclose(rotation_from_eps(q[1:]), _scipy_matrix(q), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rotation_from_eps(q[1:]), _scipy_matrix(q), rtol=0, atol=1e-9)
 
 
 @SETTINGS
@@ -86,7 +86,7 @@ def test_eps_round_trip(q: np.ndarray) -> None:
 @given(q=quats_wxyz())
 def test_rotation_from_eps_is_a_rotation(q: np.ndarray) -> None:
     R = rotation_from_eps(q[1:])
-    np.testing.assert_allclose(R @ R.T, np.eye(3), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(R @ R.T, np.eye(3), rtol=0, atol=1e-9)
     assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
 
 
@@ -107,7 +107,7 @@ def test_rotation_from_eps_is_vectorised() -> None:
     R = rotation_from_eps(eps)
     assert R.shape == (5, 7, 3, 3)
     np.testing.assert_allclose(R.reshape(-1, 3, 3), Rotation.from_quat(q).as_matrix(),
-                               rtol=0, atol=1e-12)
+                               rtol=0, atol=1e-9)
     np.testing.assert_allclose(R[2, 3], rotation_from_eps(eps[2, 3]), rtol=0, atol=0)
 
 
@@ -124,7 +124,7 @@ def test_quat_wxyz_from_matrix(q: np.ndarray) -> None:
     assert np.linalg.norm(got) == pytest.approx(1.0, abs=1e-12)
     # The same rotation (q and -q are the same; with w >= 0 only w == 0 leaves a choice).
     assert min(np.abs(got - q).max(), np.abs(got + q).max()) < 1e-9
-    np.testing.assert_allclose(_scipy_matrix(got), R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(_scipy_matrix(got), R, rtol=0, atol=1e-9)
 
 
 def test_quat_wxyz_order_for_a_z_rotation() -> None:
@@ -223,7 +223,7 @@ def test_pose_vectors_to_matrices(q: np.ndarray, xyz: list[float]) -> None:
     pose = np.concatenate([xyz, q[1:]])
     T = pose_vectors_to_matrices(pose[None])
     assert T.shape == (1, 4, 4)
-    np.testing.assert_allclose(T[0], make_transform(_scipy_matrix(q), xyz), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(T[0], make_transform(_scipy_matrix(q), xyz), rtol=0, atol=1e-9)
 
 
 def test_pose_vectors_to_matrices_batch_and_single() -> None:
@@ -233,7 +233,7 @@ def test_pose_vectors_to_matrices_batch_and_single() -> None:
     poses = np.column_stack([rng.uniform(-200, 800, (9, 3)), q[:, :3]])
     T = pose_vectors_to_matrices(poses)
     assert T.shape == (9, 4, 4)
-    np.testing.assert_allclose(T[:, :3, :3], Rotation.from_quat(q).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(T[:, :3, :3], Rotation.from_quat(q).as_matrix(), atol=1e-9)
     np.testing.assert_array_equal(T[:, :3, 3], poses[:, :3])
     np.testing.assert_array_equal(T[:, 3], np.tile([0.0, 0.0, 0.0, 1.0], (9, 1)))
     np.testing.assert_array_equal(pose_vectors_to_matrices(poses[4]), T[4:5])

@@ -29,8 +29,10 @@ def _open(path: str | os.PathLike[str]) -> cv2.FileStorage:
         raise InputError(p, "calibration file not found")
     try:
         fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
-        raise InputError(p, f"not a readable OpenCV YAML/XML/JSON file ({_cv_reason(exc)})") from None
+    except (cv2.error, SystemError) as exc:  # OpenCV 5 wraps cv2.error in SystemError
+        cause = exc if isinstance(exc, cv2.error) else exc.__cause__
+        reason = _cv_reason(cause) if isinstance(cause, cv2.error) else "parse error"
+        raise InputError(p, f"not a readable OpenCV YAML/XML/JSON file ({reason})") from None
     if not fs.isOpened():
         raise InputError(p, "not a readable OpenCV YAML/XML/JSON file")
     return fs

@@ -47,6 +47,8 @@ class PinholeCamera:
             raise ValueError(f"K: expected shape (3, 3), got {K.shape}")
         if not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
             raise ValueError("K: focal lengths must be finite and positive")
+        if K[1, 0] != 0 or not np.array_equal(K[2], [0.0, 0.0, 1.0]):
+            raise ValueError("K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]]")
         d = np.asarray(self.dist, dtype=np.float64).ravel()
         if d.size not in (0, 4, 5, 8, 12, 14):
             raise ValueError(f"dist: expected 0, 4, 5, 8, 12 or 14 coefficients, got {d.size}")
@@ -108,11 +110,11 @@ class PinholeCamera:
         between OpenCV 4 and 5).
         """
         pts = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-        xy = cv2.undistortPoints(pts.reshape(-1, 1, 2), self.K, self.dist).reshape(-1, 2)
-        if not self.has_distortion:
-            return xy
         Kinv = np.linalg.inv(self.K)
-        target = pts @ Kinv[:2, :2].T + Kinv[:2, 2]
+        target = pts @ Kinv[:2, :2].T + Kinv[:2, 2]  # skew included (OpenCV ignores it)
+        if not self.has_distortion:
+            return target
+        xy = cv2.undistortPoints(pts.reshape(-1, 1, 2), self.K, self.dist).reshape(-1, 2)
         h = 1e-7
         for _ in range(20):
             f = self.distort_normalized(xy) - target

@@ -10,8 +10,8 @@ from pathlib import Path
 from photomodel.camera import load_stereo
 from photomodel.cli._progress import search_progress
 from photomodel.errors import InputError
-from photomodel.image import read_color_image, write_image
 from photomodel.fitness import FITNESS_PRESETS
+from photomodel.image import read_color_image, write_image
 from photomodel.locate import (
     DEFAULT_FITNESS,
     DEFAULT_MIN_SCORE,
@@ -21,6 +21,8 @@ from photomodel.locate import (
 )
 from photomodel.model import load_model
 from photomodel.search import GAConfig, SearchSpace
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -57,6 +59,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.overlay is not None and args.overlay.suffix.lower() not in IMAGE_SUFFIXES:
+        raise InputError(args.overlay, f"unknown image type; use one of {IMAGE_SUFFIXES}")
     if args.generations < 1:
         raise InputError("--generations", f"expected a positive count, got {args.generations}")
     try:

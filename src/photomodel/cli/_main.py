@@ -42,6 +42,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except PhotomodelError as exc:
         print(f"photomodel: error: {exc}", file=sys.stderr)
         return EXIT_INPUT_ERROR
+    except OSError as exc:  # a file system refusal (permissions, full disk, a file as folder)
+        print(f"photomodel: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
     except KeyboardInterrupt:
         print("photomodel: interrupted", file=sys.stderr)
         return 130

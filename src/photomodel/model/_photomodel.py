@@ -98,13 +98,21 @@ def save_model(model: PhotoModel, path: str | os.PathLike[str]) -> Path:
     p = Path(path)
     if p.suffix != ".npz":
         p = p.with_name(p.name + ".npz")
-    p.parent.mkdir(parents=True, exist_ok=True)
+    if p.is_dir():
+        raise InputError(p, "is a directory; give a model file name")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(p, f"cannot create its folder ({exc.strerror})") from None
     meta = {"format": _FORMAT_NAME, "version": FORMAT_VERSION, "name": model.name, **model.meta}
     tmp = p.with_name(f".{p.name}.tmp")
-    with open(tmp, "wb") as fh:
-        np.savez_compressed(fh, meta=np.array(json.dumps(meta)),
-                            **{k: np.asarray(getattr(model, k)) for k in _ARRAYS})
-    os.replace(tmp, p)
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, meta=np.array(json.dumps(meta)),
+                                **{k: np.asarray(getattr(model, k)) for k in _ARRAYS})
+        os.replace(tmp, p)
+    finally:
+        tmp.unlink(missing_ok=True)
     return p
 
 
