@@ -185,8 +185,9 @@ def build_photo_model(
     # S_in: grid inside, clear of the outline ring, plus the ring itself.
     inset_px = cfg.edge_inset_mm * px_per_mm + 0.5
     ring_in = _rings(dist_in >= inset_px, to_model, cfg.step_mm)
-    lo = (to_model(uv_mask).min(axis=0)[:2] // cfg.step_mm) * cfg.step_mm
-    hi = to_model(uv_mask).max(axis=0)[:2]
+    xy_model = xy_mask - centroid
+    lo = (xy_model.min(axis=0) // cfg.step_mm) * cfg.step_mm
+    hi = xy_model.max(axis=0)
     gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + cfg.step_mm, cfg.step_mm),
                          np.arange(lo[1], hi[1] + cfg.step_mm, cfg.step_mm))
     grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
