@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from photomodel.sim import GARMENT_SHAPES, garment_outline_mm, make_garment
+from photomodel.sim import FABRICS, GARMENT_SHAPES, garment_outline_mm, make_garment
 from photomodel.sim._garments import _MARGIN_PX
 
 
@@ -78,3 +78,110 @@ def test_bad_arguments_are_named():
         make_garment("towel", "silk")
     with pytest.raises(ValueError, match="size_mm"):
         make_garment("towel", "plain", (0.0, 10.0))
+
+
+# --- All silhouettes and fabrics ------------------------------------------------------------
+
+
+def _segments_cross(pts: np.ndarray) -> bool:
+    """Whether any two non-adjacent edges of a closed polygon (N, 2) intersect or touch."""
+    a, b = pts, np.roll(pts, -1, axis=0)
+    n = len(pts)
+    i, j = np.triu_indices(n, k=2)
+    keep = (j - i) % n != n - 1  # the last edge is adjacent to the first
+    i, j = i[keep], j[keep]
+
+    def orient(p, q, r):
+        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1])
+                       - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
+
+    def on_segment(p, q, r):  # r, collinear with p-q, lies within the segment's box
+        lo, hi = np.minimum(p, q), np.maximum(p, q)
+        return np.all((r >= lo) & (r <= hi), axis=1)
+
+    o1, o2 = orient(a[i], b[i], a[j]), orient(a[i], b[i], b[j])
+    o3, o4 = orient(a[j], b[j], a[i]), orient(a[j], b[j], b[i])
+    proper = (o1 * o2 < 0) & (o3 * o4 < 0)
+    touch = (((o1 == 0) & on_segment(a[i], b[i], a[j])) | ((o2 == 0) & on_segment(a[i], b[i], b[j]))
+             | ((o3 == 0) & on_segment(a[j], b[j], a[i]))
+             | ((o4 == 0) & on_segment(a[j], b[j], b[i])))
+    return bool(np.any(proper | touch))
+
+
+def test_segment_crossing_check_can_fail():
+    bowtie = np.array([(0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0)])
+    assert _segments_cross(bowtie)
+    pinched = np.array([(0.0, 0.0), (2.0, 0.0), (1.0, 1.0), (2.0, 2.0), (0.0, 2.0), (1.0, 1.0)])
+    assert _segments_cross(pinched)  # touches itself at (1, 1)
+    assert not _segments_cross(np.array([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]))
+
+
+@pytest.mark.parametrize("shape", GARMENT_SHAPES)
+def test_outlines_are_simple_clockwise_and_fill_their_box(shape):
+    size = (230.0, 190.0)
+    pts = garment_outline_mm(shape, size)
+    assert pts.ndim == 2 and pts.shape[1] == 2 and len(pts) >= 4
+    np.testing.assert_allclose(pts.min(axis=0), (0, 0), atol=1e-9)
+    np.testing.assert_allclose(pts.max(axis=0), size, atol=1e-9)
+    x, y = pts[:, 0], pts[:, 1]
+    assert (x * np.roll(y, -1) - np.roll(x, -1) * y).sum() > 0  # clockwise on screen (y down)
+    assert np.all(np.linalg.norm(pts - np.roll(pts, -1, axis=0), axis=1) > 1e-6)
+    assert not _segments_cross(pts)
+    # One connected silhouette without holes.
+    alpha = make_garment(shape, "plain", size, rng=0, mm_per_px=1.0).texture.alpha > 0.5
+    n_labels, _ = cv2.connectedComponents(alpha.astype(np.uint8))
+    n_background, _ = cv2.connectedComponents((~alpha).astype(np.uint8))
+    assert n_labels == 2 and n_background == 2
+
+
+def test_original_outlines_are_unchanged():
+    # Regression values of the first three shapes (other tests and datasets rely on them).
+    expected = {"tshirt": (24, 2760.0, 958.72698595), "towel": (40, 4600.0, 3800.0),
+                "trousers": (9, 1035.0, 931.0)}
+    for shape, (n, sx, sy) in expected.items():
+        pts = garment_outline_mm(shape, (230.0, 190.0))
+        assert len(pts) == n
+        np.testing.assert_allclose(pts.sum(axis=0), (sx, sy), rtol=1e-9)
+
+
+def test_shapes_differ_from_each_other():
+    masks = {s: make_garment(s, "plain", (200, 180), rng=0, mm_per_px=1.0).texture.alpha > 0.5
+             for s in GARMENT_SHAPES}
+    for s in GARMENT_SHAPES:
+        for t in GARMENT_SHAPES:
+            if s < t:
+                iou = (masks[s] & masks[t]).sum() / (masks[s] | masks[t]).sum()
+                assert iou < 0.93, (s, t, iou)
+
+
+@pytest.mark.parametrize("fabric", FABRICS)
+def test_every_fabric_makes_a_garment(fabric):
+    g = make_garment("tshirt", fabric, (120.0, 100.0), rng=3, description="d")
+    tex = g.texture
+    assert (g.shape, g.fabric, g.description, g.name) == ("tshirt", fabric, "d",
+                                                         f"tshirt-{fabric}")
+    assert tex.image_bgr.shape == (208, 248, 3) and tex.image_bgr.dtype == np.uint8
+    np.testing.assert_allclose(_alpha_centroid(tex.alpha.astype(float)), tex.origin_px,
+                               atol=0.01)
+    again = make_garment("tshirt", fabric, (120.0, 100.0), rng=3)
+    np.testing.assert_array_equal(again.texture.image_bgr, tex.image_bgr)
+    inside = tex.image_bgr[tex.alpha > 0.99].astype(float)
+    # Patterned fabrics vary far beyond the weave's grain.
+    assert (inside.std(axis=0).max() > 15) == (fabric != "plain")
+
+
+@pytest.mark.parametrize("fabric", ["stripes", "dots", "print"])
+def test_colour_is_the_ground_of_patterned_fabrics(fabric):
+    ground = (235, 238, 240)
+    g = make_garment("towel", fabric, (150.0, 120.0), rng=2, colour_bgr=ground)
+    inside = g.texture.image_bgr[g.texture.alpha > 0.99].astype(float)
+    near = np.abs(inside - ground).max(axis=1) < 12
+    assert near.mean() > 0.3
+
+
+def test_photo_garment_uses_the_named_picture():
+    a = make_garment("towel", "photo", (150.0, 120.0), rng=2, photo="coffee")
+    b = make_garment("towel", "photo", (150.0, 120.0), rng=2, photo="rocket")
+    assert not np.array_equal(a.texture.image_bgr, b.texture.image_bgr)
+    with pytest.raises(ValueError, match="photo"):
+        make_garment("towel", "photo", photo="mona-lisa")

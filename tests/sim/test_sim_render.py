@@ -105,12 +105,22 @@ def test_later_items_are_drawn_on_top_and_alpha_blends():
         128, 0, 128)
 
 
-def test_items_must_stay_in_the_plane():
+def test_items_may_be_lifted_and_must_be_rigid():
     camera = model_station_camera()
     T = make_transform(np.eye(3), [0, 0, MODEL_DISTANCE_MM])
-    lifted = make_transform(np.eye(3), [0, 0, 5.0])
+    # A square 40 mm wide lifted 100 mm towards the camera looks 400/300 times as wide.
+    square = PlaneTexture(np.full((80, 80, 3), 255, np.uint8), np.ones((80, 80), np.float32),
+                          0.5, np.array([39.5, 39.5]))
+    flat = render_view(camera, T, _table(), [(np.eye(4), square)])
+    lifted = render_view(camera, T, _table(),
+                         [(make_transform(np.eye(3), [0, 0, -100.0]), square)])
+    width_flat = (flat[240, :, 2] > 200).sum()
+    width_lifted = (lifted[240, :, 2] > 200).sum()
+    assert width_lifted / width_flat == pytest.approx(400 / 300, rel=0.03)
+    sheared = np.eye(4)
+    sheared[0, 1] = 0.3
     with pytest.raises(ValueError, match="items\\[0\\]"):
-        render_view(camera, T, _table(), [(lifted, _flat((0, 0, 255)))])
+        render_view(camera, T, _table(), [(sheared, _flat((0, 0, 255)))])
     with pytest.raises(ValueError, match="T_cam_plane"):
         render_view(camera, np.eye(3), _table())
 

@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from photomodel import __version__
-from photomodel.cli import _build, _demo, _locate
+from photomodel.cli import _build, _demo, _locate, _simulate
 from photomodel.errors import PhotomodelError
 
 EXIT_INPUT_ERROR = 2
@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _build.add_parser(sub)
     _locate.add_parser(sub)
+    _simulate.add_parser(sub)
     _demo.add_parser(sub)
     return parser
 

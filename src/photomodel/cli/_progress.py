@@ -1,4 +1,4 @@
-"""A rich progress bar on stderr for long searches, silent when stderr is not a terminal."""
+"""Rich progress bars on stderr (searches, datasets), silent when stderr is not a terminal."""
 
 from __future__ import annotations
 
@@ -25,5 +25,22 @@ def search_progress(label: str, enabled: bool) -> Iterator[Callable[[Optimizer],
         def update(opt: Optimizer) -> None:
             res = opt.result
             bar.update(task, completed=res.iterations, best=res.fitness)
+
+        yield update
+
+
+@contextmanager
+def count_progress(label: str, enabled: bool) -> Iterator[Callable[[int, int, str], None] | None]:
+    """Yield a ``progress(done, total, what)`` callback that draws a bar of finished items."""
+    if not enabled:
+        yield None
+        return
+    with Progress(TextColumn("{task.description}"), BarColumn(),
+                  TextColumn("{task.completed:.0f}/{task.total:.0f}  {task.fields[what]}"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(label, total=None, what="")
+
+        def update(done: int, total: int, what: str) -> None:
+            bar.update(task, completed=done, total=total, what=what)
 
         yield update

@@ -1,26 +1,39 @@
-"""Exact renderer of flat textures lying in one plane, seen by a distorted pinhole camera.
+"""Renderer of textured items over a plane, seen by a distorted pinhole camera.
 
-Inverse mapping: every (sub-)pixel's ray comes from :meth:`PinholeCamera.undistort_pixels`,
+Flat items (the table, flat garments, the faces of a box, a gripper) are rendered by exact
+inverse mapping: every (sub-)pixel's ray comes from :meth:`PinholeCamera.undistort_pixels`,
 the exact inverse of the camera's distortion, and is intersected with the plane; so a texture
 point lands where :meth:`PinholeCamera.project` says, up to texture interpolation (a small
 fraction of a pixel). Layers are sampled with ``cv2.remap`` (bilinear, transparent outside the
 texture), composited with premultiplied alpha and area-averaged over ``s x s`` sub-pixels.
+Wrinkled garments are meshes rendered by :mod:`photomodel.sim._mesh`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 
 import cv2
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.camera import PinholeCamera
-from photomodel.geometry import invert_transform
+from photomodel.sim._mesh import Wrinkles, field_of_view_radius, render_mesh_layer
 from photomodel.sim._textures import PlaneTexture, RngLike
 
-__all__ = ["add_sensor_noise", "blur", "pixel_rays", "render_view"]
+__all__ = [
+    "DEFAULT_LIGHT_DIR",
+    "Layer",
+    "RenderedView",
+    "add_sensor_noise",
+    "blur",
+    "pixel_rays",
+    "render_view",
+    "render_view_linear",
+]
 
 _OUTSIDE = -16.0  # texture coordinate that samples only the transparent border
 
@@ -64,80 +77,257 @@ def pixel_rays(camera: PinholeCamera, supersample: int = 1) -> NDArray[np.float6
                         camera.height_px, int(supersample))
 
 
-def _plane_points(rays: NDArray[np.float64], T_cam_plane: NDArray[np.float64]
-                  ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Plane-frame (x, y) (..., 2) mm where the rays meet the plane z = 0, and where they do."""
-    R, p0 = T_cam_plane[:3, :3], T_cam_plane[:3, 3]
-    n = R[:, 2]
-    denom = rays[..., 0] * n[0] + rays[..., 1] * n[1] + n[2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        depth = np.dot(n, p0) / denom  # Z of the hit point in the camera frame
-    hit = depth > 0  # False for NaN, rays parallel to the plane and hits behind the camera
-    depth = np.where(hit, depth, 0.0)
-    dx, dy, dz = rays[..., 0] * depth - p0[0], rays[..., 1] * depth - p0[1], depth - p0[2]
-    xy = np.stack([R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz,
-                   R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz], axis=-1)
-    return xy, hit
+@numba.njit(parallel=True, cache=True)
+def _texture_maps(rays: NDArray[np.float64], R: NDArray[np.float64], p0: NDArray[np.float64],
+                  origin_px: NDArray[np.float64], mm_per_px: float
+                  ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:  # pragma: no cover
+    """Texture pixel maps (H, W) of rays (H, W, 2) meeting the plane z = 0 of a frame.
+
+    ``R``, ``p0``: the frame's pose in the camera frame. Rays that miss the plane (NaN rays,
+    parallel, or meeting it behind the camera) map to a texture pixel outside every texture.
+    """
+    height, width = rays.shape[0], rays.shape[1]
+    map_u = np.empty((height, width), np.float32)
+    map_v = np.empty((height, width), np.float32)
+    n0, n1, n2 = R[0, 2], R[1, 2], R[2, 2]
+    num = n0 * p0[0] + n1 * p0[1] + n2 * p0[2]
+    for i in numba.prange(height):
+        for j in range(width):
+            rx, ry = rays[i, j, 0], rays[i, j, 1]
+            denom = rx * n0 + ry * n1 + n2
+            depth = num / denom if denom != 0.0 else -1.0
+            if not depth > 0.0:  # also catches NaN
+                map_u[i, j] = _OUTSIDE
+                map_v[i, j] = _OUTSIDE
+                continue
+            dx, dy, dz = rx * depth - p0[0], ry * depth - p0[1], depth - p0[2]
+            x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz
+            y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
+            map_u[i, j] = x / mm_per_px + origin_px[0]
+            map_v[i, j] = y / mm_per_px + origin_px[1]
+    return map_u, map_v
 
 
-def _sample(texture: PlaneTexture, xy_item: NDArray[np.float64],
-            hit: NDArray[np.bool_]) -> NDArray[np.float32]:
-    """Premultiplied (B, G, R, alpha) (..., 4) of a texture at item-frame points (..., 2), mm."""
-    uv = texture.px_from_mm(xy_item)
-    uv[~hit] = _OUTSIDE
+def _maps(rays: NDArray[np.float64], T_cam_item: NDArray[np.float64],
+          texture: PlaneTexture) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    return _texture_maps(rays, np.ascontiguousarray(T_cam_item[:3, :3]),
+                         np.ascontiguousarray(T_cam_item[:3, 3]), texture.origin_px,
+                         texture.mm_per_px)
+
+
+def _sample(texture: PlaneTexture, map_u: NDArray[np.float32],
+            map_v: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Premultiplied (B, G, R, alpha) (H, W, 4) of a texture at texture pixel maps (H, W)."""
     a = texture.alpha[..., None]
     layer = np.concatenate([texture.image_bgr.astype(np.float32) * a, a], axis=-1)
-    return cv2.remap(layer, uv[..., 0].astype(np.float32), uv[..., 1].astype(np.float32),
-                     cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return cv2.remap(layer, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                     borderValue=0)
 
 
-def render_view(
+def _sample_opaque(texture: PlaneTexture, map_u: NDArray[np.float32],
+                   map_v: NDArray[np.float32]) -> NDArray[np.float32]:
+    """(B, G, R) (H, W, 3) of an opaque texture; black outside it."""
+    return cv2.remap(texture.image_bgr.astype(np.float32), map_u, map_v, cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+DEFAULT_LIGHT_DIR: tuple[float, float, float] = (0.3, -0.4, -0.87)
+"""Default direction *towards* the light in the plane's frame (z into the table): above, oblique."""
+
+
+@dataclass(frozen=True)
+class Layer:
+    """A textured item in the scene.
+
+    Parameters
+    ----------
+    texture : PlaneTexture
+        Its picture and silhouette (alpha), in the item frame's z = 0 plane.
+    T_plane_item : ndarray (4, 4)
+        Pose of the item frame in the plane (table) frame, mm: any rigid transform (items may
+        be lifted above the table or stand on edge, like the side of a box).
+    wrinkles : Wrinkles, optional
+        A non-planar cloth surface (rendered as a mesh); None for a flat item.
+    cull_back : bool
+        Skip the item in cameras that see its back (+z) side: the faces of a solid.
+    """
+
+    texture: PlaneTexture
+    T_plane_item: NDArray[np.float64]
+    wrinkles: Wrinkles | None = None
+    cull_back: bool = False
+
+
+@dataclass(frozen=True)
+class RenderedView:
+    """What :func:`render_view_linear` returns.
+
+    Parameters
+    ----------
+    image : ndarray (H, W, 3) float32
+        BGR, 0-255 scale, not rounded or clipped (shading may exceed 255).
+    coverage : ndarray (H, W) float32 or None
+        Coverage in [0, 1] of the tracked layer by itself; None when no layer was tracked.
+    visible : ndarray (H, W) float32 or None
+        Visible coverage of the tracked layer (its coverage times what no later layer hides).
+    """
+
+    image: NDArray[np.float32]
+    coverage: NDArray[np.float32] | None = None
+    visible: NDArray[np.float32] | None = None
+
+
+def _as_layer(item: Layer | tuple[ArrayLike, PlaneTexture]) -> Layer:
+    if isinstance(item, Layer):
+        return item
+    T, texture = item
+    return Layer(texture, np.asarray(T, dtype=np.float64))
+
+
+def _flat_shade(T_plane_item: NDArray[np.float64], light: NDArray[np.float64],
+                ambient: float) -> float:
+    """Lambertian brightness of a flat item relative to the table (1 for items parallel to it)."""
+    normal = -T_plane_item[:3, 2]  # the item's -z faces the viewer, like the table's
+    ref = max(float(-light[2]), 1e-3)
+    lam = abs(float(normal @ light))
+    return (ambient + (1.0 - ambient) * lam) / (ambient + (1.0 - ambient) * ref)
+
+
+Roi = tuple[slice, slice]
+
+
+def _flat_roi(camera: PinholeCamera, T_cam_item: NDArray[np.float64], texture: PlaneTexture,
+              supersample: int) -> Roi:
+    """Sub-pixel rows and columns that can see a flat item: its texture rectangle's image bbox.
+
+    The whole image when part of the rectangle lies behind the camera or beyond the image's
+    field of view (where a distortion polynomial may fold back).
+    """
+    s = supersample
+    full = (slice(0, camera.height_px * s), slice(0, camera.width_px * s))
+    w, h = texture.size_px
+    t = np.linspace(0.0, 1.0, 25)[:, None]
+    corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+    edges = np.concatenate([a + t * (b - a) for a, b in
+                            zip(corners, np.roll(corners, -1, axis=0), strict=True)])
+    pts = np.column_stack([texture.mm_from_px(edges), np.zeros(len(edges))])
+    cam = pts @ T_cam_item[:3, :3].T + T_cam_item[:3, 3]
+    if np.any(cam[:, 2] <= 1e-6):
+        return full
+    radius = np.hypot(cam[:, 0] / cam[:, 2], cam[:, 1] / cam[:, 2])
+    if np.any(radius > field_of_view_radius(camera)):
+        return full
+    uv = (camera.project(cam) + 0.5) * s - 0.5
+    c0 = max(int(np.floor(uv[:, 0].min())) - 2, 0)
+    c1 = min(int(np.ceil(uv[:, 0].max())) + 3, camera.width_px * s)
+    r0 = max(int(np.floor(uv[:, 1].min())) - 2, 0)
+    r1 = min(int(np.ceil(uv[:, 1].max())) + 3, camera.height_px * s)
+    if c0 >= c1 or r0 >= r1:
+        return (slice(0, 0), slice(0, 0))
+    return (slice(r0, r1), slice(c0, c1))
+
+
+def render_view_linear(
     camera: PinholeCamera,
     T_cam_plane: ArrayLike,
     background: PlaneTexture,
-    items: Sequence[tuple[ArrayLike, PlaneTexture]] = (),
+    items: Sequence[Layer | tuple[ArrayLike, PlaneTexture]] = (),
     *,
     supersample: int = 2,
-) -> NDArray[np.uint8]:
-    """Render flat textures lying in one plane as the camera sees them.
+    track: int | None = None,
+    light_dir_plane: ArrayLike = DEFAULT_LIGHT_DIR,
+    ambient: float = 0.45,
+) -> RenderedView:
+    """Render textured items over a plane as the camera sees them (floating point).
+
+    Flat items are rendered exactly by inverse mapping (every sub-pixel's ray through the exact
+    inverse of the lens distortion, met with the item's plane); wrinkled items as z-buffered
+    meshes (:func:`render_mesh_layer`). Items are composited in order, later ones on top (the
+    caller orders them by height).
 
     Parameters
     ----------
     camera : PinholeCamera
         Camera with its image size set; its distortion is honoured exactly.
     T_cam_plane : ndarray (4, 4)
-        Pose of the plane frame in the camera frame, mm; everything lies at z = 0 of the plane.
+        Pose of the plane frame in the camera frame, mm.
     background : PlaneTexture
         Bottom layer, its texture frame equal to the plane frame.
-    items : sequence of (T_plane_item (4, 4), PlaneTexture)
-        Layers on top, later ones above earlier ones, each placed by an in-plane rigid
-        transform (rotation about z, translation in x and y) of its texture frame.
+    items : sequence of Layer or (T_plane_item (4, 4), PlaneTexture)
+        Items on top, later ones above earlier ones.
     supersample : int
         Sub-pixels per pixel along each axis; their colours are averaged (anti-aliasing).
+    track : int, optional
+        Index into ``items`` of a layer whose visible coverage is returned.
+    light_dir_plane : (3,)
+        Direction towards the (distant) light in the plane frame; shades wrinkles and items
+        not parallel to the plane.
+    ambient : float
+        Share of ambient light in the shading.
 
     Returns
     -------
-    ndarray (height_px, width_px, 3) uint8
-        BGR image; black where no opaque layer is seen (rays missing the plane, or meeting it
-        behind the camera).
+    RenderedView
     """
     T_cam_plane = _check_transform(T_cam_plane, "T_cam_plane")
-    placed = []
-    for k, (T_plane_item, texture) in enumerate(items):
-        T = _check_transform(T_plane_item, f"items[{k}]")
-        if not np.allclose(T[2], [0.0, 0.0, 1.0, 0.0], atol=1e-9):
-            raise ValueError(f"items[{k}]: T_plane_item must keep the item in the plane z = 0")
-        placed.append((invert_transform(T), texture))
-    xy, hit = _plane_points(pixel_rays(camera, supersample), T_cam_plane)
-    image = _sample(background, xy, hit)[..., :3]
-    for T_item_plane, texture in placed:
-        xy_item = xy @ T_item_plane[:2, :2].T + T_item_plane[:2, 3]
-        layer = _sample(texture, xy_item, hit)
-        image = layer[..., :3] + (1.0 - layer[..., 3:]) * image
+    layers = [_as_layer(item) for item in items]
+    for k, layer in enumerate(layers):
+        _check_transform(layer.T_plane_item, f"items[{k}]")
+    if track is not None and not 0 <= track < len(layers):
+        raise ValueError(f"track: expected an index into items, got {track}")
+    light = np.asarray(light_dir_plane, dtype=np.float64)
+    light = light / np.linalg.norm(light)
+    rays = pixel_rays(camera, supersample)
+    if bool(np.all(background.alpha == 1.0)):
+        image = _sample_opaque(background, *_maps(rays, T_cam_plane, background))
+    else:
+        image = _sample(background, *_maps(rays, T_cam_plane, background))[..., :3]
+    coverage = visible = None
+    for k, layer in enumerate(layers):
+        T_cam_item = T_cam_plane @ layer.T_plane_item
+        if layer.cull_back and float(T_cam_item[:3, 2] @ T_cam_item[:3, 3]) <= 0.0:
+            continue
+        if layer.wrinkles is not None:
+            sampled, roi = render_mesh_layer(camera, T_cam_item, layer.texture, layer.wrinkles,
+                                             supersample, T_cam_plane[:3, :3] @ light, ambient)
+        else:
+            roi = _flat_roi(camera, T_cam_item, layer.texture, supersample)
+            sampled = _sample(layer.texture, *_maps(rays[roi], T_cam_item, layer.texture))
+            shade = _flat_shade(layer.T_plane_item, light, ambient)
+            if shade != 1.0:
+                sampled[..., :3] *= shade
+        alpha = sampled[..., 3:]
+        image[roi] = sampled[..., :3] + (1.0 - alpha) * image[roi]
+        if visible is not None:
+            visible[roi] *= 1.0 - alpha[..., 0]
+        if k == track:
+            coverage = np.zeros(image.shape[:2], np.float32)
+            coverage[roi] = alpha[..., 0]
+            visible = coverage.copy()
     if supersample > 1:
-        image = cv2.resize(image, (camera.width_px, camera.height_px),
-                           interpolation=cv2.INTER_AREA)
-    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+        size = (camera.width_px, camera.height_px)
+        image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+        if coverage is not None and visible is not None:
+            coverage = cv2.resize(coverage, size, interpolation=cv2.INTER_AREA)
+            visible = cv2.resize(visible, size, interpolation=cv2.INTER_AREA)
+    return RenderedView(image.astype(np.float32), coverage, visible)
+
+
+def render_view(
+    camera: PinholeCamera,
+    T_cam_plane: ArrayLike,
+    background: PlaneTexture,
+    items: Sequence[Layer | tuple[ArrayLike, PlaneTexture]] = (),
+    *,
+    supersample: int = 2,
+) -> NDArray[np.uint8]:
+    """Render items over a plane as the camera sees them, as an 8-bit BGR image.
+
+    :func:`render_view_linear` rounded and clipped to uint8 (same parameters); black where no
+    opaque layer is seen (rays missing the plane, or meeting it behind the camera).
+    """
+    view = render_view_linear(camera, T_cam_plane, background, items, supersample=supersample)
+    return np.clip(np.rint(view.image), 0, 255).astype(np.uint8)
 
 
 def add_sensor_noise(image: NDArray[np.uint8], sigma: float,

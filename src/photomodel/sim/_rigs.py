@@ -52,14 +52,17 @@ def model_station_camera() -> PinholeCamera:
     return PinholeCamera(K, np.array([-0.12, 0.08, 0.0005, -0.0004, 0.0]), 640, 480)
 
 
-def hand_stereo_rig(distortion: bool = True) -> StereoRig:
+def hand_stereo_rig(distortion: bool = True, lens: str = "standard") -> StereoRig:
     """The stereo pair on the robot's hand (640 x 480 each, f about 800 px, 120 mm baseline).
 
     Parameters
     ----------
     distortion : bool
-        Realistic lens distortion (k1 about -0.15) when True, none when False; everything else
-        is identical.
+        Lens distortion when True, none when False (the same as ``lens="none"``); everything
+        else is identical.
+    lens : str
+        ``"standard"`` (k1 about -0.15), ``"wide"`` (strong barrel distortion, k1 about -0.32,
+        as of a wide-angle lens) or ``"none"``.
 
     Returns
     -------
@@ -70,7 +73,12 @@ def hand_stereo_rig(distortion: bool = True) -> StereoRig:
     """
     d1 = np.array([-0.15, 0.06, 0.0011, -0.0008, 0.0])
     d2 = np.array([-0.145, 0.058, -0.0009, 0.0012, 0.0])
-    if not distortion:
+    if lens == "wide":
+        d1 = np.array([-0.32, 0.14, 0.0011, -0.0008, -0.02])
+        d2 = np.array([-0.315, 0.135, -0.0009, 0.0012, -0.02])
+    elif lens not in ("standard", "none"):
+        raise ValueError(f"lens: expected 'standard', 'wide' or 'none', got {lens!r}")
+    if not distortion or lens == "none":
         d1, d2 = np.zeros(5), np.zeros(5)
     cam1 = PinholeCamera(_intrinsics(801.2, 800.6, 322.1, 238.4), d1, 640, 480)
     cam2 = PinholeCamera(_intrinsics(798.4, 798.9, 317.6, 241.3), d2, 640, 480)
