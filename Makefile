@@ -5,7 +5,7 @@ BIN     = $(VENV)/bin
 STAMP   = $(VENV)/.installed-stamp
 DEMO_DIR ?= build/demo
 
-.PHONY: demo test test-all lint bench clean
+.PHONY: demo test test-all lint bench docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,16 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_fitness.py
+	$(BIN)/python benchmarks/bench_sim.py
+
+# Contact sheets of the simulator (committed under docs/): every garment, every nuisance.
+docs: $(STAMP)
+	$(BIN)/photomodel simulate --out build/docs/garments --garments all --conditions paper \
+		--seed 7 --force --contact-sheet docs/sim_garments.png
+	$(BIN)/photomodel simulate --out build/docs/nuisances --garments No.1 --conditions all \
+		--seed 7 --force --contact-sheet docs/sim_nuisances.png
+	$(BIN)/photomodel simulate --out build/docs/lenses --garments No.1 \
+		--conditions wide-lens --seed 7 --force --contact-sheet docs/sim_wide_lens.png
 
 clean:
 	rm -rf $(VENV) build .pytest_cache

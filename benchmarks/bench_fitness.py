@@ -9,13 +9,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-import subprocess
-import time
-from importlib.metadata import version
 from pathlib import Path
 
 import numpy as np
+from _meta import metadata, timed
 
 from photomodel.fitness import make_fitness
 from photomodel.locate import locate
@@ -29,23 +26,6 @@ from photomodel.sim import (
     random_stereo_scene,
     render_model_photos,
 )
-
-
-def _commit() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
-def _time(fn, repeats: int) -> list[float]:
-    out = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t0)
-    return out
 
 
 def main() -> None:
@@ -67,8 +47,8 @@ def main() -> None:
     fast = make_fitness("balanced", model, rig, scene.right_bgr, scene.left_bgr)
     ref = make_fitness("balanced", model, rig, scene.right_bgr, scene.left_bgr, backend="numpy")
     fast(population)  # compile / load the cached kernel
-    t_fast = _time(lambda: fast(population), 50)
-    t_ref = _time(lambda: ref(population), 10)
+    t_fast = timed(lambda: fast(population), 50)
+    t_ref = timed(lambda: ref(population), 10)
 
     t_locate = []
     for k in range(args.scenes):
@@ -77,13 +57,7 @@ def main() -> None:
         t_locate.append(res.seconds)
 
     result = {
-        "benchmark": "fitness",
-        "commit": _commit(),
-        "seed": args.seed,
-        "machine": {"platform": platform.platform(), "processor": platform.processor(),
-                    "python": platform.python_version()},
-        "versions": {p: version(p) for p in ("numpy", "numba", "opencv-python-headless",
-                                             "scipy", "photomodel")},
+        **metadata("fitness", args.seed),
         "model_points": {"S_in": model.n_in, "S_out": model.n_out},
         "population_fitness_ms": {
             "numba_median": 1e3 * float(np.median(t_fast)),

@@ -14,7 +14,7 @@ from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.geometry import make_transform, transform_points
 from photomodel.sim._conditions import Conditions, expose
 from photomodel.sim._garments import Garment
-from photomodel.sim._mesh import make_wrinkles
+from photomodel.sim._mesh import Wrinkles, make_wrinkles
 from photomodel.sim._objects import OBJECT_KINDS, gripper, make_object, place_layers
 from photomodel.sim._render import Layer, add_sensor_noise, blur, render_view, render_view_linear
 from photomodel.sim._rigs import MODEL_DISTANCE_MM, hand_table_pose
@@ -186,12 +186,16 @@ class SimulatedScene:
     info : dict
         JSON-ready facts: placement on the table, tilt, fold height, light, visible fraction of
         the target in each camera, distractors (see :func:`simulate_scene`).
+    wrinkles : Wrinkles or None
+        The target's cloth surface when it is wrinkled: ``wrinkles.surface_mm(m)`` is where
+        material point ``m`` of the garment lies in its frame (``T_cam1_model`` maps it on).
     """
 
     right_bgr: NDArray[np.uint8]
     left_bgr: NDArray[np.uint8]
     T_cam1_model: NDArray[np.float64] | None
     info: dict[str, Any]
+    wrinkles: Wrinkles | None = None
 
 
 POSITION_RANGE_MM: tuple[float, float] = (510.0, 390.0)
@@ -309,6 +313,7 @@ def simulate_scene(
     taken: list[tuple[float, float, float]] = []
     target_layer: Layer | None = None
     T_table_garment = None
+    wrinkles: Wrinkles | None = None
     if target is not None:
         outline = _footprint_mm(target.texture)
         if placement is None:
@@ -321,7 +326,6 @@ def simulate_scene(
                 raise ValueError(f"target: {target.name} does not fit inside both images")
         x_mm, y_mm, theta_deg = (float(p) for p in placement)
         T_table_garment = garment_placement(x_mm, y_mm, theta_deg)
-        wrinkles = None
         if conditions.wrinkle_height_mm > 0:
             wrinkles = make_wrinkles(target.texture, gen, conditions.wrinkle_height_mm)
         target_layer = Layer(target.texture, T_table_garment, wrinkles)
@@ -371,7 +375,7 @@ def simulate_scene(
             fractions.append(float(view.visible.sum() / max(float(view.coverage.sum()), 1e-9)))
     info["visible_fraction"] = fractions if target is not None else None
     T_cam1_model = None if T_table_garment is None else T_cam1_table @ T_table_garment
-    return SimulatedScene(images[0], images[1], T_cam1_model, info)
+    return SimulatedScene(images[0], images[1], T_cam1_model, info, wrinkles)
 
 
 def _occluder(kind: str, target: Garment, T_table_garment: NDArray[np.float64],
