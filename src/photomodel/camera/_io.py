@@ -136,7 +136,8 @@ def load_distance_mm(path: str | os.PathLike[str]) -> float | None:
 
 
 def load_stereo(path: str | os.PathLike[str]) -> StereoRig:
-    """Read the hand's stereo calibration (``K1``/``M1``, ``D1``, ``K2``/``M2``, ``D2``, ``R``, ``T``).
+    """Read the hand's stereo calibration (``K1``/``M1``, ``D1``, ``K2``/``M2``, ``D2``, ``R``,
+    ``T``).
 
     Camera 1 is the reference (the paper's right camera); ``X2 = R X1 + T`` with ``T`` in mm.
     ``R`` may also be given as a Rodrigues vector (3 values).

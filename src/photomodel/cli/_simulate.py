@@ -49,13 +49,23 @@ def run(args: argparse.Namespace) -> int:
         contact_sheet,
         garment_names,
         load_garment,
+        parse_conditions,
         write_dataset,
     )
 
     garments = list(garment_names()) if args.garments == "all" else _split(args.garments)
     if args.garments != "all" and not garments and not args.add_garment:
         raise InputError("--garments", "no garment named")
+    unknown = [g for g in garments if g not in garment_names()]
+    if unknown:
+        raise InputError("--garments", f"unknown garment {unknown[0]!r}; the catalogue has "
+                                       f"{', '.join(garment_names())}")
     conditions = list(CONDITIONS) if args.conditions == "all" else _split(args.conditions)
+    for spec in conditions:
+        try:
+            parse_conditions(spec)
+        except ValueError as exc:
+            raise InputError("--conditions", str(exc)) from None
     extra = {}
     for name, image, mask, width in args.add_garment:
         try:
@@ -73,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
             summary = write_dataset(args.out, garments, conditions, args.scenes, args.seed,
                                     extra_garments=extra, overwrite=args.force,
                                     progress=progress)
+    except InputError:
+        raise
     except ValueError as exc:
-        raise InputError("simulate", str(exc)) from None
+        raise InputError(args.out, str(exc)) from None
     print(f"wrote {args.out}/: {len(summary.models)} model(s), {len(summary.scenes)} scene(s), "
           f"truth.json, stereo.yaml, model_camera.yaml")
     if args.contact_sheet is not None:

@@ -156,7 +156,9 @@ class PaperFitness:
             for cam, (uv, img) in enumerate(zip((uv1, uv2), self.images, strict=True)):
                 counts[:, 2 * cam + k] = self._count(uv, codes, min_sat, img)
         vi, vo = self.votes.inside, self._vote_out
-        f = ((vi * counts[:, 0] - vo * counts[:, 1]) + (vi * counts[:, 2] - vo * counts[:, 3])) / 2.0
+        right = vi * counts[:, 0] - vo * counts[:, 1]
+        left = vi * counts[:, 2] - vo * counts[:, 3]
+        f = (right + left) / 2.0
         return f, counts
 
     def _count(self, uv: NDArray[np.float64], codes: NDArray[np.float32],

@@ -9,4 +9,11 @@ from photomodel.locate._locate import (
 )
 from photomodel.locate._overlay import draw_overlay
 
-__all__ = ["DEFAULT_FITNESS", "DEFAULT_MIN_SCORE", "LocateResult", "draw_overlay", "locate", "make_optimizer"]
+__all__ = [
+    "DEFAULT_FITNESS",
+    "DEFAULT_MIN_SCORE",
+    "LocateResult",
+    "draw_overlay",
+    "locate",
+    "make_optimizer",
+]

@@ -159,6 +159,8 @@ def write_dataset(
     jobs = _jobs(parsed, list(chosen), scenes)
     total = len(chosen) + len(jobs)
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
+    created = next((p for p in reversed(out.parents) if not p.exists()), None)
+    complete = False
     try:
         if tmp.exists():
             shutil.rmtree(tmp)
@@ -196,13 +198,15 @@ def write_dataset(
         (tmp / "dataset.json").write_text(dumps_json(_manifest(seed, chosen, parsed, scenes)))
         if out.exists():
             shutil.rmtree(out) if out.is_dir() else out.unlink()
-        out.parent.mkdir(parents=True, exist_ok=True)
         os.replace(tmp, out)
+        complete = True
     except OSError as exc:
         raise InputError(out, f"cannot write the dataset: {exc.strerror or exc}") from exc
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+        if not complete and created is not None and created.exists():
+            shutil.rmtree(created, ignore_errors=True)  # folders this call made for ``out``
     return DatasetSummary(out, tuple(chosen), tuple(truth))
 
 

@@ -387,7 +387,7 @@ def _occluder(kind: str, target: Garment, T_table_garment: NDArray[np.float64],
     if kind == "gripper":
         layers, finger_mm = gripper(gen)
         reach = gen.uniform(0.1, 0.5) * radius  # fingertips this far past the target's centre
-        tip = np.array([x0, y0]) - reach * np.array([np.cos(direction), np.sin(direction)])
+        tip = np.array([x0, y0]) + reach * np.array([np.cos(direction), np.sin(direction)])
         height = float(gen.uniform(40.0, 120.0))
         T = garment_placement(tip[0], tip[1], float(np.degrees(direction)))
         T[2, 3] = -height
