@@ -1,0 +1,109 @@
+"""Trial records of an experiment: one CSV row per recognition, appended as trials finish.
+
+The CSV is the experiment's durable state: a run that is interrupted keeps every finished row,
+and a rerun skips the trials whose ``trial_id`` is already there (resumable). Errors are
+estimate minus truth in camera 1's frame (the paper's x, y, z of the model frame seen from the
+right camera), ``err_theta_deg`` wrapped to (-180, 180].
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from photomodel.errors import InputError
+
+__all__ = ["COLUMNS", "FLOAT_COLUMNS", "append_records", "done_trial_ids", "read_records"]
+
+COLUMNS: tuple[str, ...] = (
+    "trial_id", "garment", "condition", "index", "found", "score", "fitness",
+    "evaluations", "generations", "seconds",
+    "true_x_mm", "true_y_mm", "true_z_mm", "true_theta_deg",
+    "est_x_mm", "est_y_mm", "est_z_mm", "est_theta_deg",
+    "err_x_mm", "err_y_mm", "err_z_mm", "err_theta_deg", "err_xy_mm", "err_tilt_deg",
+    "visible_fraction", "stop_reason",
+)
+"""Columns of ``records.csv``, in order."""
+
+_TEXT = {"trial_id", "garment", "condition", "stop_reason"}
+_INT = {"index", "found", "evaluations", "generations"}
+FLOAT_COLUMNS: tuple[str, ...] = tuple(c for c in COLUMNS if c not in _TEXT | _INT)
+
+
+def append_records(path: str | os.PathLike[str], rows: Iterable[Mapping[str, Any]]) -> None:
+    """Append rows to the CSV (writing the header first if the file is new), then flush to disk.
+
+    Floats are written with ``repr`` precision, so a reread value is bit-identical.
+    """
+    path = Path(path)
+    new = not path.exists() or path.stat().st_size == 0
+    torn = False
+    if not new:
+        with path.open("rb") as f:
+            f.seek(-1, os.SEEK_END)
+            torn = f.read(1) != b"\n"  # a row cut short by an interruption
+    with path.open("a", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="raise")
+        if new:
+            writer.writeheader()
+        if torn:
+            f.write("\r\n")
+        for row in rows:
+            writer.writerow({k: (repr(float(v)) if k in FLOAT_COLUMNS else v)
+                             for k, v in row.items()})
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    try:
+        with path.open(newline="") as f:
+            reader = csv.DictReader(f)
+            if reader.fieldnames is None:
+                return []
+            missing = [c for c in COLUMNS if c not in reader.fieldnames]
+            if missing:
+                raise InputError(path, f"not a records file: missing columns {missing}")
+            # A row cut short by an interruption (no newline, missing fields) is dropped.
+            return [row for row in reader
+                    if None not in row and None not in row.values() and row["stop_reason"]]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InputError(path, f"cannot read records: {exc}") from exc
+
+
+def done_trial_ids(path: str | os.PathLike[str]) -> set[str]:
+    """Trial ids already recorded in the CSV (empty if it does not exist)."""
+    path = Path(path)
+    if not path.exists():
+        return set()
+    return {row["trial_id"] for row in _rows(path)}
+
+
+def read_records(path: str | os.PathLike[str]) -> dict[str, NDArray[Any]]:
+    """The CSV as columns: text columns as str arrays, counts as int, the rest float (N,).
+
+    Raises
+    ------
+    InputError
+        Missing, unreadable or not a records file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "records file not found")
+    rows = _rows(path)
+    out: dict[str, NDArray[Any]] = {}
+    for c in COLUMNS:
+        values = [row[c] for row in rows]
+        if c in _TEXT:
+            out[c] = np.array(values, dtype=str)
+        elif c in _INT:
+            out[c] = np.array([int(v) for v in values], dtype=np.int64)
+        else:
+            out[c] = np.array([float(v) for v in values], dtype=np.float64)
+    return out

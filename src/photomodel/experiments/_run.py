@@ -1,0 +1,193 @@
+"""Running an experiment: trials spread over local processes or a Dask cluster, resumable.
+
+Each finished trial is appended to ``records.csv`` at once (and flushed), so an interrupted run
+loses at most the trials in flight; running the same command again skips the recorded trials.
+``config.json`` pins the settings of a run directory: resuming with other settings is refused.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+from photomodel.errors import InputError
+from photomodel.experiments._records import append_records, done_trial_ids
+from photomodel.experiments._trials import (
+    ExperimentConfig,
+    Trial,
+    limit_threads,
+    plan_trials,
+    run_trial,
+)
+
+__all__ = ["RunSummary", "run_experiment", "run_metadata"]
+
+RunSummary = dict[str, Any]
+Progress = Callable[[int, int, str], None]
+
+_PACKAGES = ("numpy", "numba", "opencv-python-headless", "scipy", "scikit-image", "photomodel")
+
+
+def _commit() -> str:
+    here = Path(__file__).resolve().parent
+    try:
+        return subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, check=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def run_metadata() -> dict[str, Any]:
+    """Commit, library versions and machine of this run."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    versions = {}
+    for p in _PACKAGES:
+        try:
+            versions[p] = version(p)
+        except PackageNotFoundError:
+            versions[p] = None
+    return {"commit": _commit(), "versions": versions,
+            "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                        "cpus": os.cpu_count(), "python": platform.python_version()}}
+
+
+def _check_config(out: Path, config: ExperimentConfig) -> None:
+    path = out / "config.json"
+    wanted = config.to_json_dict()
+    if path.exists():
+        try:
+            found = json.loads(path.read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(path, f"cannot read: {exc}") from None
+        if found != wanted:
+            diff = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
+            raise InputError(out, "holds an experiment with other settings "
+                                  f"({', '.join(diff)}); choose another --out to start afresh")
+        return
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(wanted, indent=1) + "\n")
+    os.replace(tmp, path)
+
+
+def _in_process(config: ExperimentConfig, trials: list[Trial]) -> Iterator[dict[str, Any]]:
+    for trial in trials:
+        yield run_trial(config, trial)
+
+
+def _local_pool(config: ExperimentConfig, trials: list[Trial],
+                workers: int) -> Iterator[dict[str, Any]]:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
+                             initializer=limit_threads) as pool:
+        futures = [pool.submit(run_trial, config, t) for t in trials]
+        try:
+            for fut in as_completed(futures):
+                yield fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def _dask(config: ExperimentConfig, trials: list[Trial],
+          scheduler: Any) -> Iterator[dict[str, Any]]:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise InputError("--scheduler", "needs Dask: pip install 'photomodel[cluster]'") from None
+    client = scheduler if isinstance(scheduler, Client) else Client(scheduler, timeout="30s")
+    try:
+        futures = client.map(run_trial, [config] * len(trials), trials, pure=False)
+        try:
+            for fut in dask_completed(futures):
+                yield fut.result()
+        finally:
+            client.cancel(futures)
+    finally:
+        if client is not scheduler:
+            client.close()
+
+
+def run_experiment(
+    out: str | os.PathLike[str],
+    config: ExperimentConfig,
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    progress: Progress | None = None,
+) -> RunSummary:
+    """Run (or resume) an experiment into ``out``: ``records.csv``, ``config.json``,
+    ``summary.json``.
+
+    Parameters
+    ----------
+    out : path
+        Run directory (created if needed). Trials already in its ``records.csv`` are skipped.
+    config : ExperimentConfig
+        Settings; must equal those the directory was started with.
+    workers : int, optional
+        Local processes (default: all cores; 1 runs in this process).
+    scheduler : str or distributed.Client, optional
+        Address of a Dask scheduler (or a client) to run the trials on instead.
+    progress : callable(done, total, trial_id), optional
+        Called as each trial is recorded (``done`` counts earlier runs' trials too).
+
+    Returns
+    -------
+    dict
+        The summary written to ``summary.json``: settings, commit, versions, machine, trial
+        counts, wall time of this run and the executor.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    _check_config(out, config)
+    records = out / "records.csv"
+    trials = plan_trials(config)
+    if not trials:
+        raise InputError(out, "the experiment has no trials")
+    done = done_trial_ids(records)
+    pending = [t for t in trials if t.trial_id not in done]
+    workers = max(1, int(workers or os.cpu_count() or 1))
+    if scheduler is not None:
+        stream, executor = _dask(config, pending, scheduler), f"dask ({scheduler})"
+    elif workers == 1 or len(pending) <= 1:
+        stream, executor = _in_process(config, pending), "in-process"
+    else:
+        stream = _local_pool(config, pending, min(workers, len(pending)))
+        executor = f"{min(workers, len(pending))} local processes"
+    t0 = time.perf_counter()
+    n_done = len(trials) - len(pending)
+    for record in stream:
+        append_records(records, [record])
+        n_done += 1
+        if progress is not None:
+            progress(n_done, len(trials), str(record["trial_id"]))
+    summary = {
+        "settings": config.to_json_dict(),
+        **run_metadata(),
+        "trials_total": len(trials),
+        "trials_this_run": len(pending),
+        "wall_seconds_this_run": time.perf_counter() - t0,
+        "executor": executor,
+    }
+    previous = out / "summary.json"
+    if previous.exists():
+        try:
+            before = json.loads(previous.read_text())
+            summary["wall_seconds_total"] = (before.get("wall_seconds_total", 0.0)
+                                             + summary["wall_seconds_this_run"])
+        except (OSError, ValueError):
+            pass
+    summary.setdefault("wall_seconds_total", summary["wall_seconds_this_run"])
+    tmp = previous.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(summary, indent=1) + "\n")
+    os.replace(tmp, previous)
+    return summary

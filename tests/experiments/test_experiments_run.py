@@ -1,0 +1,89 @@
+"""Running experiments: records, resuming, and the same records whatever the executor."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from photomodel.errors import InputError
+from photomodel.experiments import (
+    COLUMNS,
+    ExperimentConfig,
+    plan_trials,
+    read_records,
+    run_experiment,
+)
+
+# Short searches: these tests check bookkeeping and determinism, not accuracy.
+CONFIG = ExperimentConfig(garments=("No.3", "No.7"), trials=2, seed=5, max_generations=8)
+
+
+def _by_trial(records: dict[str, np.ndarray]) -> dict[str, dict[str, object]]:
+    """Records keyed by trial id, without the timing column."""
+    order = np.argsort(records["trial_id"])
+    return {str(records["trial_id"][i]): {c: records[c][i] for c in COLUMNS if c != "seconds"}
+            for i in order}
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, object]]:
+    out = tmp_path_factory.mktemp("reference")
+    summary = run_experiment(out, CONFIG, workers=1)
+    assert summary["executor"] == "in-process" and summary["trials_total"] == 4
+    return _by_trial(read_records(out / "records.csv"))
+
+
+def test_records_hold_every_trial_with_consistent_errors(
+        reference: dict[str, dict[str, object]]) -> None:
+    assert sorted(reference) == sorted(t.trial_id for t in plan_trials(CONFIG))
+    for rec in reference.values():
+        for axis in ("x", "y", "z"):
+            est, true = float(rec[f"est_{axis}_mm"]), float(rec[f"true_{axis}_mm"])
+            assert float(rec[f"err_{axis}_mm"]) == pytest.approx(est - true)
+        assert -180.0 < float(rec["err_theta_deg"]) <= 180.0
+        assert 500.0 < float(rec["true_z_mm"]) < 900.0
+        assert int(rec["generations"]) >= 1 and rec["stop_reason"]
+
+
+def test_an_interrupted_run_resumes_where_it_stopped(
+        tmp_path: Path, reference: dict[str, dict[str, object]]) -> None:
+    run_experiment(tmp_path, CONFIG, workers=1)
+    path = tmp_path / "records.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    # Interrupted while writing the last row: a torn line without its newline.
+    path.write_text("".join(lines[:-2]) + lines[-2][: len(lines[-2]) // 2])
+    summary = run_experiment(tmp_path, CONFIG, workers=1)
+    assert summary["trials_this_run"] == 2
+    assert _by_trial(read_records(path)) == reference
+    again = run_experiment(tmp_path, CONFIG, workers=1)
+    assert again["trials_this_run"] == 0
+    assert json.loads((tmp_path / "summary.json").read_text())["trials_total"] == 4
+
+
+def test_other_settings_in_the_same_directory_are_refused(tmp_path: Path) -> None:
+    run_experiment(tmp_path, ExperimentConfig(garments=("No.3",), trials=1, seed=5,
+                                              max_generations=3), workers=1)
+    with pytest.raises(InputError, match="other settings.*seed"):
+        run_experiment(tmp_path, ExperimentConfig(garments=("No.3",), trials=1, seed=6,
+                                                  max_generations=3), workers=1)
+
+
+def test_local_processes_give_the_same_records(
+        tmp_path: Path, reference: dict[str, dict[str, object]]) -> None:
+    summary = run_experiment(tmp_path, CONFIG, workers=2)
+    assert summary["executor"] == "2 local processes"
+    assert _by_trial(read_records(tmp_path / "records.csv")) == reference
+
+
+def test_a_dask_local_cluster_gives_the_same_records(
+        tmp_path: Path, reference: dict[str, dict[str, object]]) -> None:
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        summary = run_experiment(tmp_path, CONFIG, scheduler=client)
+    assert summary["executor"].startswith("dask")
+    assert _by_trial(read_records(tmp_path / "records.csv")) == reference
