@@ -84,8 +84,8 @@ def test_simulate_in_a_subprocess_writes_the_dataset_and_a_contact_sheet(tmp_pat
     files = _files(out)
     assert set(files) == LAYOUT
     truth = json.loads(files["truth.json"])
-    assert truth["no-target_000"]["model"] is None
-    assert truth["paper_No.3_000"]["model"] == "No.3"
+    assert truth["no-target_0000"]["model"] is None
+    assert truth["paper_No.3_0000"]["model"] == "No.3"
     assert sheet.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     image = cv2.imread(str(sheet))
     assert image is not None and image.shape[0] > 150 and image.shape[1] > 400
@@ -109,8 +109,8 @@ def test_user_garment_is_modelled_and_simulated(capsys, tmp_path: Path,
                                 "scenes/paper_mine_000/right.png",
                                 "scenes/paper_mine_000/left.png"}
     truth = json.loads((out / "truth.json").read_text())
-    assert truth["paper_mine_000"]["model"] == "mine"
-    assert truth["paper_mine_000"]["visible_fraction"] == pytest.approx([1.0, 1.0])
+    assert truth["paper_mine_0000"]["model"] == "mine"
+    assert truth["paper_mine_0000"]["visible_fraction"] == pytest.approx([1.0, 1.0])
     manifest = json.loads((out / "dataset.json").read_text())
     assert manifest["garments"]["mine"]["shape"] == "user"
     assert manifest["garments"]["mine"]["size_mm"][0] == pytest.approx(200.0)
@@ -123,7 +123,7 @@ def test_user_garment_is_modelled_and_simulated(capsys, tmp_path: Path,
     expected = mask_px * (200.0 / 241.0) ** 2 * (760.0 / 400.0) ** 2
     assert 0.93 * expected < garment_px < 1.02 * expected
     # ... and the scene shows it too: the user's blue and yellow are in the right image.
-    scene = cv2.imread(str(out / "scenes" / "paper_mine_000" / "right.png"))
+    scene = cv2.imread(str(out / "scenes" / "paper_mine_0000" / "right.png"))
     hsv = cv2.cvtColor(scene, cv2.COLOR_BGR2HSV).reshape(-1, 3)
     blue = (np.abs(hsv[:, 0].astype(int) - 111) < 8) & (hsv[:, 1] > 150)
     assert blue.sum() > 0.5 * expected * (800.0 / 685.0) ** 2 / (760.0 / 400.0) ** 2
@@ -140,7 +140,7 @@ def test_force_replaces_an_existing_dataset(capsys, tmp_path: Path) -> None:
     _assert_nothing_written(tmp_path, "ds")
     code, stdout, err = _run(capsys, [*argv, "--force"])
     assert code == 0, err
-    assert "old.txt" not in _files(out) and (out / "scenes" / "no-target_000").is_dir()
+    assert "old.txt" not in _files(out) and (out / "scenes" / "no-target_0000").is_dir()
     _assert_nothing_written(tmp_path, "ds")
 
 

@@ -87,3 +87,16 @@ def test_a_dask_local_cluster_gives_the_same_records(
         summary = run_experiment(tmp_path, CONFIG, scheduler=client)
     assert summary["executor"].startswith("dask")
     assert _by_trial(read_records(tmp_path / "records.csv")) == reference
+
+
+def test_a_simulated_dataset_gives_the_same_records_as_simulating(
+        tmp_path: Path, reference: dict[str, dict[str, object]]) -> None:
+    from photomodel.sim import write_dataset
+
+    data = tmp_path / "data"
+    write_dataset(data, list(CONFIG.garments), list(CONFIG.conditions), CONFIG.trials,
+                  CONFIG.seed)
+    on_files = ExperimentConfig(seed=CONFIG.seed, max_generations=CONFIG.max_generations,
+                                dataset=str(data))
+    run_experiment(tmp_path / "run", on_files, workers=1)
+    assert _by_trial(read_records(tmp_path / "run" / "records.csv")) == reference

@@ -21,8 +21,8 @@ from photomodel.sim import (
 
 GARMENTS = ["No.1", "No.3"]
 CONDITIONS = ["paper", "wrinkles+distractors", "no-target"]
-SCENE_IDS = {"paper_No.1_000", "paper_No.3_000", "wrinkles+distractors_No.1_000",
-             "wrinkles+distractors_No.3_000", "no-target_000"}
+SCENE_IDS = {"paper_No.1_0000", "paper_No.3_0000", "wrinkles+distractors_No.1_0000",
+             "wrinkles+distractors_No.3_0000", "no-target_0000"}
 
 
 def _files(root: Path) -> dict[str, bytes]:
@@ -71,8 +71,8 @@ def test_layout_of_design_md(datasets: dict[str, Path]) -> None:
         np.testing.assert_array_equal(T[3], [0, 0, 0, 1])
         assert 500 < T[2, 3] < 900  # on the table, about 685 mm from the rig
         assert entry["visible_fraction"] == pytest.approx([1.0, 1.0], abs=0.03)
-    assert truth["wrinkles+distractors_No.1_000"]["wrinkle_height_mm"] == 8.0
-    assert len(truth["no-target_000"]["distractors"]) >= 1
+    assert truth["wrinkles+distractors_No.1_0000"]["wrinkle_height_mm"] == 8.0
+    assert len(truth["no-target_0000"]["distractors"]) >= 1
     manifest = json.loads((root / "dataset.json").read_text())
     assert manifest["seed"] == 7 and set(manifest["garments"]) == set(GARMENTS)
     assert set(manifest["conditions"]) == set(CONDITIONS)
@@ -105,7 +105,7 @@ def test_progress_counts_every_image(datasets: dict[str, Path]) -> None:
     total = len(GARMENTS) + len(SCENE_IDS)
     assert [c[0] for c in calls] == list(range(1, total + 1))
     assert all(c[1] == total for c in calls)
-    assert calls[0][2] == "model No.1" and calls[-1][2] == "scene no-target_000"
+    assert calls[0][2] == "model No.1" and calls[-1][2] == "scene no-target_0000"
 
 
 def test_same_seed_gives_byte_identical_files(datasets: dict[str, Path]) -> None:
@@ -124,7 +124,7 @@ def test_fewer_garments_and_conditions_leave_the_common_files_identical(
     assert [name for name in common if subset[name] != full[name]] == []
     truth_full = json.loads(full["truth.json"])
     truth_subset = json.loads(subset["truth.json"])
-    assert set(truth_subset) == {"paper_No.3_000", "no-target_000"}
+    assert set(truth_subset) == {"paper_No.3_0000", "no-target_0000"}
     for scene_id, entry in truth_subset.items():
         assert entry == truth_full[scene_id]
 
@@ -137,8 +137,8 @@ def test_another_seed_gives_other_images_and_poses(datasets: dict[str, Path]) ->
         assert seven[name] != eight[name], name
     # The calibration does not depend on the seed.
     assert seven["stereo.yaml"] == eight["stereo.yaml"]
-    T7 = json.loads(seven["truth.json"])["paper_No.3_000"]["T_cam1_model"]
-    T8 = json.loads(eight["truth.json"])["paper_No.3_000"]["T_cam1_model"]
+    T7 = json.loads(seven["truth.json"])["paper_No.3_0000"]["T_cam1_model"]
+    T8 = json.loads(eight["truth.json"])["paper_No.3_0000"]["T_cam1_model"]
     assert not np.allclose(T7, T8)
 
 
@@ -165,12 +165,12 @@ def test_overwrite_replaces_and_an_empty_out_is_filled(tmp_path: Path) -> None:
     out.mkdir()
     (out / "old.txt").write_text("old")
     summary = write_dataset(out, ["No.3"], ["no-target"], overwrite=True)
-    assert summary.scenes == ("no-target_000",) and summary.models == ("No.3",)
+    assert summary.scenes == ("no-target_0000",) and summary.models == ("No.3",)
     assert not (out / "old.txt").exists() and (out / "truth.json").is_file()
     empty = tmp_path / "empty"
     empty.mkdir()
     write_dataset(empty, ["No.3"], ["no-target"])
-    assert (empty / "scenes" / "no-target_000" / "left.png").is_file()
+    assert (empty / "scenes" / "no-target_0000" / "left.png").is_file()
     assert _leftovers(tmp_path) == []
 
 

@@ -161,20 +161,20 @@ def dot_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("truth") / "dots_dataset"
     summary = write_dataset(out, garments=[], conditions=["clean"], scenes=1, seed=5,
                             extra_garments={"dots": garment})
-    assert summary.scenes == ("clean_dots_000",) and summary.models == ("dots",)
+    assert summary.scenes == ("clean_dots_0000",) and summary.models == ("dots",)
     return out
 
 
 def test_written_calibration_and_truth_explain_the_written_images(dot_dataset: Path) -> None:
     _, _, centres = _dot_garment()
     rig = load_stereo(dot_dataset / "stereo.yaml")
-    truth = json.loads((dot_dataset / "truth.json").read_text())["clean_dots_000"]
+    truth = json.loads((dot_dataset / "truth.json").read_text())["clean_dots_0000"]
     assert truth["model"] == "dots"
     T_cam1_model = np.array(truth["T_cam1_model"])
     points = np.column_stack([centres, np.zeros(len(centres))])
     err = []
     for (camera, T_cam_cam1), name in zip(_views(rig), ("right.png", "left.png"), strict=True):
-        image = cv2.imread(str(dot_dataset / "scenes" / "clean_dots_000" / name))
+        image = cv2.imread(str(dot_dataset / "scenes" / "clean_dots_0000" / name))
         assert image is not None and image.shape == (camera.height_px, camera.width_px, 3)
         T = T_cam_cam1 @ T_cam1_model
         # Projected with OpenCV itself: the file's K, D, R, T mean what OpenCV means by them.

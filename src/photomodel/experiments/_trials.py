@@ -100,10 +100,16 @@ def plan_trials(config: ExperimentConfig) -> list[Trial]:
     """
     if config.dataset is not None:
         truth = _truth(config.dataset)
-        return [Trial(sid, facts["model"], str(facts.get("condition", "")), k)
+        return [Trial(sid, facts["model"], str(facts.get("condition", "")), _index(sid, k))
                 for k, (sid, facts) in enumerate(truth.items()) if facts.get("model")]
     return [Trial(f"{cond}_{g}_{k:04d}", g, cond, k)
             for cond in config.conditions for g in config.garments for k in range(config.trials)]
+
+
+def _index(scene_id: str, position: int) -> int:
+    """The index a scene id ends with (``paper_No.3_0007`` -> 7), else its position."""
+    tail = scene_id.rsplit("_", 1)[-1]
+    return int(tail) if tail.isdigit() else position
 
 
 @lru_cache(maxsize=4)

@@ -225,10 +225,10 @@ def _jobs(parsed: Mapping[str, Conditions], garments: list[str], scenes: int
     jobs: list[tuple[str, str, str | None, int]] = []
     for spec, cond in parsed.items():
         if cond.target:
-            jobs += [(f"{spec}_{name}_{k:03d}", spec, name, k)
+            jobs += [(f"{spec}_{name}_{k:04d}", spec, name, k)
                      for name in garments for k in range(scenes)]
         else:
-            jobs += [(f"{spec}_{k:03d}", spec, None, k) for k in range(scenes)]
+            jobs += [(f"{spec}_{k:04d}", spec, None, k) for k in range(scenes)]
     return jobs
 
 
