@@ -106,6 +106,23 @@ def test_fitness_map_peak_at_the_truth_is_the_centre_node() -> None:
     assert (x_mm[3], y_mm[3]) == (12.0, -30.0)
 
 
+@pytest.mark.slow
+def test_fitness_map_of_the_real_fitness_peaks_at_the_truth(plaid_case) -> None:
+    from photomodel.fitness import make_fitness
+    from photomodel.sim import random_stereo_scene
+
+    scene = random_stereo_scene(plaid_case.garment, plaid_case.rig, rng=3)
+    fit = make_fitness("balanced", plaid_case.built.model, plaid_case.rig, scene.right_bgr,
+                       scene.left_bgr)
+    x_mm, y_mm, F = fitness_map(fit, scene.T_cam1_model, half_range_mm=8.0, step_mm=2.0)
+    i, j = np.unravel_index(np.argmax(F), F.shape)
+    assert abs(x_mm[j] - scene.T_cam1_model[0, 3]) <= 2.0
+    assert abs(y_mm[i] - scene.T_cam1_model[1, 3]) <= 2.0
+    assert F[4, 4] == pytest.approx(fit(np.r_[scene.T_cam1_model[:3, 3],
+                                              eps_from_rotation(scene.T_cam1_model[:3, :3])]
+                                        [None])[0])
+
+
 def test_fitness_map_rejects_bad_arguments() -> None:
     with pytest.raises(ValueError, match="T_cam1_model_true"):
         fitness_map(lambda p: p[:, 0], np.eye(3))

@@ -44,7 +44,8 @@ def _standardised(n: int, seed: int) -> np.ndarray:
 
 def _with_moments(means: tuple[float, ...], stds: tuple[float, ...], n: int = 1000,
                   garment: str = "No.3") -> dict[str, np.ndarray]:
-    errs = [m + s * _standardised(n, seed) for seed, (m, s) in enumerate(zip(means, stds))]
+    errs = [m + s * _standardised(n, seed)
+            for seed, (m, s) in enumerate(zip(means, stds, strict=True))]
     return make_records(*errs, garment=garment)
 
 
@@ -192,11 +193,14 @@ def test_table1_markdown_sets_ours_beside_the_papers() -> None:
     header = text.splitlines()[0]
     assert "x mm (ours / paper)" in header and "θ deg (ours / paper)" in header
     for paper_value in ("0.449", "0.136", "-3.46", "0.379", "1.23", "1.01", "5.94", "0.945",
-                        "-21.3", "14.4", "-9.4", "8.42"):
+                        "-21.3", "14.4", "-9.40", "8.42"):
         assert f" / {paper_value} " in text, paper_value
-    assert "| Average error | 3 / 0.449 | 0 / 0.136 | -2 / -3.46 | 0.25 / 0.379 |" in text
+    assert "| Average error | 3.00 / 0.449 | 0.00 / 0.136 | -2.00 / -3.46 | 0.250 / 0.379 |" in text
     assert "| Standard deviation (σ) | 1.58 / 1.23 |" in text
-    assert "5 trials, 4 found, 0 gross failures" in text
+    assert ("No.3: 5 trials, 4 found; gross failures (x-y error > 10 mm or |θ error| > 10 deg): 0;"
+            in text)
+    assert "errors measured per axis: x 5, y 5, z 5, theta 5." in text
+    assert text.rstrip().endswith("the paper's claim: yes.")
     assert len([line for line in text.splitlines() if line.startswith("| Average")]) == 8
     alone = table1_markdown(error_table(records), paper=None)
     assert " / " not in alone.split("\n\n")[0] and "| x mm |" in alone
@@ -211,8 +215,8 @@ def test_garment_summary_markdown_has_a_row_per_garment_and_all() -> None:
     lines = text.splitlines()
     assert lines[0].startswith("| Garment | n | found % | x mm mean ± σ")
     assert "gross failures | median s |" in lines[0]
-    assert lines[2].startswith("| No.2 | 2 | 50.0 | 2 ± 1.41 | 0 ± 0 |")
-    assert lines[2].endswith("| 0 | 3 |")
-    assert lines[3].startswith("| No.11 | 4 | 100.0 | 5 ± 10 |")
-    assert lines[3].endswith("| 1 | 1.5 |")
+    assert lines[2].startswith("| No.2 | 2 | 50.0 | 2.00 ± 1.41 | 0.00 ± 0.00 |")
+    assert lines[2].endswith("| 0 | 3.00 |")
+    assert lines[3].startswith("| No.11 | 4 | 100.0 | 5.00 ± 10.0 |")
+    assert lines[3].endswith("| 1 | 1.50 |")
     assert lines[4].startswith("| **all** | 6 | 83.3 |")

@@ -1,5 +1,8 @@
 """The accuracy experiment: many recognitions on simulated (or recorded) scenes, their records,
-the paper's statistics (Table 1) and figures, run locally or on a Dask cluster, resumable."""
+the paper's statistics (Table 1) and figures, run locally or on a Dask cluster, resumable.
+
+The figures (``photomodel.experiments._report``, matplotlib) load only when a report is written.
+"""
 
 from photomodel.experiments._records import (
     COLUMNS,
@@ -8,6 +11,15 @@ from photomodel.experiments._records import (
     read_records,
 )
 from photomodel.experiments._run import run_experiment, run_metadata
+from photomodel.experiments._stats import (
+    PAPER_TABLE1,
+    AxisError,
+    ErrorTable,
+    error_table,
+    error_tables,
+    garment_summary_markdown,
+    table1_markdown,
+)
 from photomodel.experiments._study import write_experiment_report
 from photomodel.experiments._trials import (
     ExperimentConfig,
@@ -20,15 +32,22 @@ from photomodel.experiments._trials import (
 
 __all__ = [
     "COLUMNS",
+    "PAPER_TABLE1",
+    "AxisError",
+    "ErrorTable",
     "ExperimentConfig",
     "Trial",
     "append_records",
     "done_trial_ids",
+    "error_table",
+    "error_tables",
+    "garment_summary_markdown",
     "plan_trials",
     "read_records",
     "run_experiment",
     "run_metadata",
     "run_trial",
+    "table1_markdown",
     "trial_inputs",
     "trial_record",
     "write_experiment_report",

@@ -22,7 +22,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -32,6 +32,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.errors import InputError
@@ -67,6 +68,7 @@ HIST_AXES: tuple[tuple[str, str], ...] = (
 
 _DPI = 100
 _FENCE_IQR = 3.0
+_MIN_BINS, _MAX_BINS = 10, 80
 
 
 @contextmanager
@@ -116,7 +118,16 @@ def _robust_range(v: NDArray[np.float64]) -> tuple[float, float]:
     return lo, hi
 
 
-def _histogram(ax: Axes, values: NDArray[np.float64], label: str, bins: int) -> None:
+def _bin_edges(v: NDArray[np.float64], lo: float, hi: float, bins: int | None
+               ) -> NDArray[np.float64]:
+    if bins is not None:
+        return np.linspace(lo, hi, bins + 1)
+    shown = v[(v >= lo) & (v <= hi)]
+    n = len(np.histogram_bin_edges(shown, bins="auto", range=(lo, hi))) - 1
+    return np.linspace(lo, hi, min(max(n, _MIN_BINS), _MAX_BINS) + 1)
+
+
+def _histogram(ax: Axes, values: NDArray[np.float64], label: str, bins: int | None) -> None:
     v = values[np.isfinite(values)]
     ax.set_xlabel(label)
     ax.set_ylabel("Frequency [times]")
@@ -125,7 +136,7 @@ def _histogram(ax: Axes, values: NDArray[np.float64], label: str, bins: int) -> 
         ax.text(0.5, 0.5, "no finite errors", transform=ax.transAxes, ha="center")
         return
     lo, hi = _robust_range(v)
-    counts, edges = np.histogram(v, bins=bins, range=(lo, hi))
+    counts, edges = np.histogram(v, bins=_bin_edges(v, lo, hi, bins))
     outside = int(np.count_nonzero((v < lo) | (v > hi)))
     ax.stairs(counts, edges, fill=True, color="tab:blue", alpha=0.8)
     mean = float(v.mean())
@@ -136,12 +147,13 @@ def _histogram(ax: Axes, values: NDArray[np.float64], label: str, bins: int) -> 
             ax.axvline(mean + k * std, color="tab:red", lw=1.0, ls="--",
                        label="mean ± 3σ" if k == 3 else None)
     ax.set_xlim(lo, hi)
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_title(f"n = {v.size}, σ = {std:.3g}; {outside} outside the axis", fontsize=10)
     ax.legend(fontsize=8, loc="upper right")
 
 
 def error_histograms(records: Mapping[str, NDArray[Any]], garment: str | None = None,
-                     bins: int = 40) -> Figure:
+                     bins: int | None = None) -> Figure:
     """Histograms of the x, y, z and θ errors (the paper's Figs. 12-16), one panel each.
 
     Parameters
@@ -150,8 +162,9 @@ def error_histograms(records: Mapping[str, NDArray[Any]], garment: str | None = 
         Columns as :func:`read_records` returns them (``garment`` and the ``err_*`` ones).
     garment : str, optional
         Only this garment's trials; None takes all of them.
-    bins : int
-        Bins over each panel's range.
+    bins : int, optional
+        Bins over each panel's range; None chooses them from the data (numpy's "auto"
+        rule on the values shown, 10 to 80 bins).
 
     Returns
     -------
@@ -160,7 +173,7 @@ def error_histograms(records: Mapping[str, NDArray[Any]], garment: str | None = 
         the quartiles -+ 3 IQR; the number of values outside it is in the panel's title.
         The mean (solid) and mean ± 3σ (dashed) are marked. Non-finite errors are left out.
     """
-    if bins < 1:
+    if bins is not None and bins < 1:
         raise ValueError(f"bins: expected a positive count, got {bins}")
     _check_records(records)
     mask = np.ones(len(records["garment"]), dtype=bool)

@@ -108,10 +108,11 @@ class ErrorTable:
     found : int or None
         How many of them were accepted as found.
     gross_failures : int or None
-        Trials with x-y error > ``GROSS_XY_MM`` or |theta error| > ``GROSS_THETA_DEG``
-        (thresholds as passed to :func:`error_table`).
+        Trials with x-y error > ``gross_xy_mm`` or |theta error| > ``gross_theta_deg``.
     median_seconds : float
         Median recognition time per trial, s (NaN when unknown).
+    gross_xy_mm, gross_theta_deg : float
+        Thresholds of a gross failure, mm and deg (by default the paper's 10 mm, 10 deg).
     """
 
     label: str
@@ -123,6 +124,8 @@ class ErrorTable:
     found: int | None = None
     gross_failures: int | None = None
     median_seconds: float = math.nan
+    gross_xy_mm: float = GROSS_XY_MM
+    gross_theta_deg: float = GROSS_THETA_DEG
 
     def axis(self, name: str) -> AxisError:
         """The statistics of axis ``name`` (one of ``AXES``)."""
@@ -214,6 +217,8 @@ def _select(records: Mapping[str, NDArray[Any]], mask: NDArray[np.bool_], label:
         found=int(np.count_nonzero(np.asarray(records["found"])[mask])),
         gross_failures=int(gross.sum()),
         median_seconds=float(np.median(seconds)) if seconds.size else math.nan,
+        gross_xy_mm=gross_xy_mm,
+        gross_theta_deg=gross_theta_deg,
     )
 
 
@@ -278,12 +283,13 @@ def error_tables(records: Mapping[str, NDArray[Any]], found_only: bool = False,
 
 
 def _fmt(value: float | None, digits: int = 3) -> str:
-    """A number to ``digits`` significant figures as the paper prints them ("—" if missing)."""
+    """A number to ``digits`` significant figures, trailing zeros kept, as the paper prints
+    them (-9.40, 0.449, -21.3); whole numbers from ``10**digits`` on; "—" if missing."""
     if value is None or not math.isfinite(value):
         return "—"
     if abs(value) >= 10 ** digits:
         return f"{value:.0f}"
-    return f"{value:.{digits}g}"
+    return f"{value + 0.0:#.{digits}g}".rstrip(".")  # + 0.0 turns -0.0 into 0.0
 
 
 def table1_markdown(table: ErrorTable, paper: ErrorTable | None = PAPER_TABLE1) -> str:
@@ -314,14 +320,21 @@ def table1_markdown(table: ErrorTable, paper: ErrorTable | None = PAPER_TABLE1) 
             cells = [f"{_fmt(v)} / {_fmt(p)}" for v, p in zip(values, paper_rows[i][1],
                                                                   strict=True)]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    n_axes = ", ".join(f"{a.split('_')[0]} {table.axis(a).n}" for a in AXES)
+    return "\n".join(lines) + "\n\n" + _table_note(table) + "\n"
+
+
+def _table_note(table: ErrorTable) -> str:
+    """One line under a Table 1: counts, gross failures, and the paper's +-3 sigma claim."""
     band = "yes" if table.within_paper_band() else "no"
-    lines += ["", (f"{table.label}: {table.trials} trials, {table.found} found, "
-                   f"{table.gross_failures} gross failures (x-y error > {GROSS_XY_MM:g} mm or "
-                   f"|θ error| > {GROSS_THETA_DEG:g} deg); errors measured per axis: {n_axes}. "
-                   f"Mean ± 3σ within ±{GROSS_XY_MM:g} mm (x, y) and ±{GROSS_THETA_DEG:g} deg "
-                   f"(θ), the paper's claim: {band}.")]
-    return "\n".join(lines) + "\n"
+    claim = (f"Mean ± 3σ within ±{GROSS_XY_MM:g} mm (x, y) and ±{GROSS_THETA_DEG:g} deg (θ), "
+             f"the paper's claim: {band}.")
+    if table.trials is None:
+        return f"{table.label}. {claim}"
+    n_axes = ", ".join(f"{a.split('_')[0]} {table.axis(a).n}" for a in AXES)
+    return (f"{table.label}: {table.trials} trials, {table.found} found; gross failures "
+            f"(x-y error > {table.gross_xy_mm:g} mm or |θ error| > "
+            f"{table.gross_theta_deg:g} deg): {table.gross_failures}; errors measured per "
+            f"axis: {n_axes}. {claim}")
 
 
 def _mean_std(s: AxisError) -> str:
