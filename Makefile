@@ -5,7 +5,7 @@ BIN     = $(VENV)/bin
 STAMP   = $(VENV)/.installed-stamp
 DEMO_DIR ?= build/demo
 
-.PHONY: demo test test-all lint bench docs clean
+.PHONY: demo test test-all lint bench docs study clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,6 +28,12 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_fitness.py
 	$(BIN)/python benchmarks/bench_sim.py
+
+# The paper's accuracy study (12 garments, paper conditions); resumable, extend with more TRIALS.
+TRIALS ?= 10
+study: $(STAMP)
+	$(BIN)/photomodel experiment --out build/study-paper --garments all --trials $(TRIALS) \
+		--conditions paper --seed 0
 
 # Contact sheets of the simulator (committed under docs/): every garment, every nuisance.
 docs: $(STAMP)

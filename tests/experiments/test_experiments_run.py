@@ -100,3 +100,17 @@ def test_a_simulated_dataset_gives_the_same_records_as_simulating(
                                 dataset=str(data))
     run_experiment(tmp_path / "run", on_files, workers=1)
     assert _by_trial(read_records(tmp_path / "run" / "records.csv")) == reference
+
+
+def test_more_trials_extend_a_study_and_keep_its_records(tmp_path: Path) -> None:
+    small = ExperimentConfig(garments=("No.3",), trials=1, seed=5, max_generations=3)
+    run_experiment(tmp_path, small, workers=1)
+    first = _by_trial(read_records(tmp_path / "records.csv"))
+    bigger = ExperimentConfig(garments=("No.3",), trials=2, seed=5, max_generations=3)
+    assert run_experiment(tmp_path, bigger, workers=1)["trials_this_run"] == 1
+    grown = _by_trial(read_records(tmp_path / "records.csv"))
+    assert set(grown) == {"paper_No.3_0000", "paper_No.3_0001"}
+    assert grown["paper_No.3_0000"] == first["paper_No.3_0000"]
+    assert json.loads((tmp_path / "config.json").read_text())["trials"] == 2
+    with pytest.raises(InputError, match="other settings.*trials"):
+        run_experiment(tmp_path, small, workers=1)

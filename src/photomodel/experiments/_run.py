@@ -2,7 +2,9 @@
 
 Each finished trial is appended to ``records.csv`` at once (and flushed), so an interrupted run
 loses at most the trials in flight; running the same command again skips the recorded trials.
-``config.json`` pins the settings of a run directory: resuming with other settings is refused.
+``config.json`` pins the settings of a run directory: resuming with other settings is refused,
+except more trials per garment, which extends the study (trial ids and seeds do not depend on
+the number of trials, so the recorded ones stay valid).
 """
 
 from __future__ import annotations
@@ -68,11 +70,13 @@ def _check_config(out: Path, config: ExperimentConfig) -> None:
             found = json.loads(path.read_text())
         except (OSError, ValueError) as exc:
             raise InputError(path, f"cannot read: {exc}") from None
-        if found != wanted:
-            diff = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
+        diff = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
+        grows = diff == ["trials"] and int(wanted["trials"]) > int(found.get("trials") or 0)
+        if diff and not grows:
             raise InputError(out, "holds an experiment with other settings "
                                   f"({', '.join(diff)}); choose another --out to start afresh")
-        return
+        if not grows:
+            return
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(wanted, indent=1) + "\n")
     os.replace(tmp, path)
