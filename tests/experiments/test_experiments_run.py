@@ -114,3 +114,12 @@ def test_more_trials_extend_a_study_and_keep_its_records(tmp_path: Path) -> None
     assert json.loads((tmp_path / "config.json").read_text())["trials"] == 2
     with pytest.raises(InputError, match="other settings.*trials"):
         run_experiment(tmp_path, small, workers=1)
+
+
+def test_the_summary_keeps_every_run_that_recorded_trials(tmp_path: Path) -> None:
+    config = ExperimentConfig(garments=("No.3",), trials=1, seed=5, max_generations=3)
+    first = run_experiment(tmp_path, config, workers=1)
+    again = run_experiment(tmp_path, config, workers=1)
+    assert [r["trials"] for r in again["runs"]] == [1]
+    assert again["wall_seconds_total"] == pytest.approx(first["wall_seconds_total"]
+                                                        + again["wall_seconds_this_run"])

@@ -148,7 +148,8 @@ def run_experiment(
     -------
     dict
         The summary written to ``summary.json``: settings, commit, versions, machine, trial
-        counts, wall time of this run and the executor.
+        counts, wall time of this run and in all, the executor, and ``runs`` (trials, executor,
+        wall time and commit of each run that recorded trials).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -183,14 +184,17 @@ def run_experiment(
         "executor": executor,
     }
     previous = out / "summary.json"
+    before: dict[str, Any] = {}
     if previous.exists():
         try:
             before = json.loads(previous.read_text())
-            summary["wall_seconds_total"] = (before.get("wall_seconds_total", 0.0)
-                                             + summary["wall_seconds_this_run"])
         except (OSError, ValueError):
-            pass
-    summary.setdefault("wall_seconds_total", summary["wall_seconds_this_run"])
+            before = {}
+    this_run = {"trials": len(pending), "executor": executor,
+                "wall_seconds": summary["wall_seconds_this_run"], "commit": summary["commit"]}
+    summary["runs"] = [*before.get("runs", []), this_run] if pending else before.get("runs", [])
+    summary["wall_seconds_total"] = (float(before.get("wall_seconds_total", 0.0))
+                                     + summary["wall_seconds_this_run"])
     tmp = previous.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(summary, indent=1) + "\n")
     os.replace(tmp, previous)
