@@ -21,8 +21,8 @@ from photomodel.sim import write_dataset
 
 LAYOUT = {"stereo.yaml", "model_camera.yaml", "truth.json", "dataset.json",
           "models/No.3/photo.bmp", "models/No.3/background.bmp",
-          "scenes/paper_No.3_000/right.png", "scenes/paper_No.3_000/left.png",
-          "scenes/no-target_000/right.png", "scenes/no-target_000/left.png"}
+          "scenes/paper_No.3_0000/right.png", "scenes/paper_No.3_0000/left.png",
+          "scenes/no-target_0000/right.png", "scenes/no-target_0000/left.png"}
 
 
 def _files(root: Path) -> dict[str, bytes]:
@@ -106,8 +106,8 @@ def test_user_garment_is_modelled_and_simulated(capsys, tmp_path: Path,
     assert "1 model(s), 1 scene(s)" in stdout
     assert set(_files(out)) == {"stereo.yaml", "model_camera.yaml", "truth.json", "dataset.json",
                                 "models/mine/photo.bmp", "models/mine/background.bmp",
-                                "scenes/paper_mine_000/right.png",
-                                "scenes/paper_mine_000/left.png"}
+                                "scenes/paper_mine_0000/right.png",
+                                "scenes/paper_mine_0000/left.png"}
     truth = json.loads((out / "truth.json").read_text())
     assert truth["paper_mine_0000"]["model"] == "mine"
     assert truth["paper_mine_0000"]["visible_fraction"] == pytest.approx([1.0, 1.0])

@@ -120,7 +120,7 @@ def test_fewer_garments_and_conditions_leave_the_common_files_identical(
     full, subset = _files(datasets["a"]), _files(datasets["subset"])
     assert set(subset) < set(full)
     common = [name for name in subset if name not in ("truth.json", "dataset.json")]
-    assert "scenes/paper_No.3_000/right.png" in common and "models/No.3/photo.bmp" in common
+    assert "scenes/paper_No.3_0000/right.png" in common and "models/No.3/photo.bmp" in common
     assert [name for name in common if subset[name] != full[name]] == []
     truth_full = json.loads(full["truth.json"])
     truth_subset = json.loads(subset["truth.json"])
@@ -132,8 +132,8 @@ def test_fewer_garments_and_conditions_leave_the_common_files_identical(
 def test_another_seed_gives_other_images_and_poses(datasets: dict[str, Path]) -> None:
     seven, eight = _files(datasets["subset"]), _files(datasets["other_seed"])
     assert set(seven) == set(eight)
-    for name in ("scenes/paper_No.3_000/right.png", "scenes/paper_No.3_000/left.png",
-                 "scenes/no-target_000/right.png", "models/No.3/photo.bmp"):
+    for name in ("scenes/paper_No.3_0000/right.png", "scenes/paper_No.3_0000/left.png",
+                 "scenes/no-target_0000/right.png", "models/No.3/photo.bmp"):
         assert seven[name] != eight[name], name
     # The calibration does not depend on the seed.
     assert seven["stereo.yaml"] == eight["stereo.yaml"]
