@@ -1,36 +1,18 @@
-"""What every benchmark's JSON records: the commit, the machine and the library versions."""
+"""What every benchmark's JSON records: the commit, the machine and the library versions
+(the same header as an experiment's summary, :func:`photomodel.experiments.run_metadata`)."""
 
 from __future__ import annotations
 
-import platform
-import subprocess
 import time
 from collections.abc import Callable
-from importlib.metadata import version
 from typing import Any
 
-PACKAGES = ("numpy", "numba", "opencv-python-headless", "scipy", "scikit-image", "photomodel")
-
-
-def commit() -> str:
-    """The checked-out commit (``unknown`` outside a git checkout)."""
-    try:
-        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+from photomodel.experiments import run_metadata
 
 
 def metadata(name: str, seed: int) -> dict[str, Any]:
     """The header of a benchmark's JSON."""
-    return {
-        "benchmark": name,
-        "commit": commit(),
-        "seed": seed,
-        "machine": {"platform": platform.platform(), "processor": platform.processor(),
-                    "python": platform.python_version()},
-        "versions": {p: version(p) for p in PACKAGES},
-    }
+    return {"benchmark": name, "seed": seed, **run_metadata()}
 
 
 def timed(fn: Callable[[], object], repeats: int) -> list[float]:

@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-import cv2
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -322,9 +321,6 @@ def render_mesh_layer(
     _rasterize(xy, depth, attr, tris, zbuf, out, covered)
     map_u = np.where(covered, out[..., 0], -16.0).astype(np.float32)
     map_v = np.where(covered, out[..., 1], -16.0).astype(np.float32)
-    a = texture.alpha[..., None]
-    src = np.concatenate([texture.image_bgr.astype(np.float32) * a, a], axis=-1)
-    layer = cv2.remap(src, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=0)
+    layer = texture.sample_premultiplied(map_u, map_v)
     layer[..., :3] *= out[..., 2:3]
     return layer, (slice(r0, r1), slice(c0, c1))

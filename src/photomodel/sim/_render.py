@@ -115,15 +115,6 @@ def _maps(rays: NDArray[np.float64], T_cam_item: NDArray[np.float64],
                          texture.mm_per_px)
 
 
-def _sample(texture: PlaneTexture, map_u: NDArray[np.float32],
-            map_v: NDArray[np.float32]) -> NDArray[np.float32]:
-    """Premultiplied (B, G, R, alpha) (H, W, 4) of a texture at texture pixel maps (H, W)."""
-    a = texture.alpha[..., None]
-    layer = np.concatenate([texture.image_bgr.astype(np.float32) * a, a], axis=-1)
-    return cv2.remap(layer, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                     borderValue=0)
-
-
 def _sample_opaque(texture: PlaneTexture, map_u: NDArray[np.float32],
                    map_v: NDArray[np.float32]) -> NDArray[np.float32]:
     """(B, G, R) (H, W, 3) of an opaque texture; black outside it."""
@@ -281,7 +272,7 @@ def render_view_linear(
     if bool(np.all(background.alpha == 1.0)):
         image = _sample_opaque(background, *_maps(rays, T_cam_plane, background))
     else:
-        image = _sample(background, *_maps(rays, T_cam_plane, background))[..., :3]
+        image = background.sample_premultiplied(*_maps(rays, T_cam_plane, background))[..., :3]
     coverage = visible = None
     for k, layer in enumerate(layers):
         T_cam_item = T_cam_plane @ layer.T_plane_item
@@ -292,7 +283,8 @@ def render_view_linear(
                                              supersample, T_cam_plane[:3, :3] @ light, ambient)
         else:
             roi = _flat_roi(camera, T_cam_item, layer.texture, supersample)
-            sampled = _sample(layer.texture, *_maps(rays[roi], T_cam_item, layer.texture))
+            sampled = layer.texture.sample_premultiplied(
+                *_maps(rays[roi], T_cam_item, layer.texture))
             shade = _flat_shade(layer.T_plane_item, light, ambient)
             if shade != 1.0:
                 sampled[..., :3] *= shade

@@ -16,6 +16,7 @@ from photomodel.sim._textures import (
     TABLE_GREY_BGR,
     PlaneTexture,
     RngLike,
+    _opaque,
     hsv_to_bgr,
 )
 
@@ -46,13 +47,6 @@ def _mottled(colour_bgr: tuple[float, float, float], w: int, h: int, mm_per_px: 
     shade += mottle * _smooth_noise((h, w), (30.0 / mm_per_px, 30.0 / mm_per_px), gen)
     return _opaque(np.asarray(colour_bgr, np.float32)[None, None, :] + shade[..., None],
                    mm_per_px)
-
-
-def _opaque(image: NDArray[np.floating], mm_per_px: float) -> PlaneTexture:
-    h, w = image.shape[:2]
-    bgr = np.clip(np.rint(image), 0, 255).astype(np.uint8)
-    return PlaneTexture(bgr, np.ones((h, w), np.float32), mm_per_px,
-                        np.array([(w - 1) / 2.0, (h - 1) / 2.0]))
 
 
 def _wood(w: int, h: int, mm_per_px: float, gen: np.random.Generator) -> PlaneTexture:

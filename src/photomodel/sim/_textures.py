@@ -117,6 +117,15 @@ class PlaneTexture:
         """Texture pixels (..., 2) = (u, v) of texture-frame points (..., 2) = (x, y), mm."""
         return np.asarray(xy_mm, dtype=np.float64) / self.mm_per_px + self.origin_px
 
+    def sample_premultiplied(self, map_u: NDArray[np.float32],
+                             map_v: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Premultiplied (B, G, R, alpha) (H, W, 4) at texture pixel maps (H, W), bilinear;
+        transparent outside the texture."""
+        a = self.alpha[..., None]
+        layer = np.concatenate([self.image_bgr.astype(np.float32) * a, a], axis=-1)
+        return cv2.remap(layer, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                         borderValue=0)
+
     def mm_from_px(self, uv: ArrayLike) -> NDArray[np.float64]:
         """Texture-frame points (..., 2) = (x, y), mm, of texture pixels (..., 2) = (u, v)."""
         return (np.asarray(uv, dtype=np.float64) - self.origin_px) * self.mm_per_px
