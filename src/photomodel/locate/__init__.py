@@ -3,6 +3,7 @@
 from photomodel.locate._locate import (
     DEFAULT_FITNESS,
     DEFAULT_MIN_SCORE,
+    PAPER_METHOD,
     LocateResult,
     locate,
     make_optimizer,
@@ -12,6 +13,7 @@ from photomodel.locate._overlay import draw_overlay
 __all__ = [
     "DEFAULT_FITNESS",
     "DEFAULT_MIN_SCORE",
+    "PAPER_METHOD",
     "LocateResult",
     "draw_overlay",
     "locate",

@@ -27,7 +27,14 @@ from photomodel.search import (
     run_search,
 )
 
-__all__ = ["DEFAULT_FITNESS", "DEFAULT_MIN_SCORE", "LocateResult", "locate", "make_optimizer"]
+__all__ = [
+    "DEFAULT_FITNESS",
+    "DEFAULT_MIN_SCORE",
+    "PAPER_METHOD",
+    "LocateResult",
+    "locate",
+    "make_optimizer",
+]
 
 DEFAULT_MIN_SCORE = 0.5
 """Score above which the garment counts as found: at the true pose about 0.8-0.95 of the
@@ -36,6 +43,11 @@ S_in points match in both images, on a garment-free table well under 0.3 do."""
 OptimizerName = Literal["ga", "full"]
 
 DEFAULT_FITNESS = "balanced"
+
+PAPER_METHOD: dict[str, Any] = {
+    "fitness": "paper", "optimizer": "ga", "refine": False, "ga_config": GAConfig.paper()}
+"""Keyword arguments of :func:`locate` that select the paper's method as read here: the
+``paper`` fitness, the plain binary GA without restarts, no local refinement."""
 
 
 @dataclass(frozen=True)
