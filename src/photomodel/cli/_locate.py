@@ -35,7 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--left", required=True, type=Path, help="camera 2 (left) image")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
-    p.add_argument("--optimizer", choices=("ga", "full"), default="ga",
+    p.add_argument("--optimizer", choices=("ga", "full", "rga", "cma", "de"), default="ga",
                    help="the paper's binary GA (default) or full grid search")
     p.add_argument("--fitness", choices=sorted(FITNESS_PRESETS), default=DEFAULT_FITNESS,
                    help=f"fitness function (default {DEFAULT_FITNESS})")

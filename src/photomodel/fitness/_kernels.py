@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
     if Z <= 0.0:
         return -1.0e9, -1.0e9

@@ -40,7 +40,7 @@ DEFAULT_MIN_SCORE = 0.5
 """Score above which the garment counts as found: at the true pose about 0.8-0.95 of the
 S_in points match in both images, on a garment-free table well under 0.3 do."""
 
-OptimizerName = Literal["ga", "full"]
+OptimizerName = Literal["ga", "full", "rga", "cma", "de"]
 
 DEFAULT_FITNESS = "balanced"
 
@@ -99,12 +99,25 @@ def make_optimizer(name: OptimizerName, space: SearchSpace,
                    rng: int | np.random.Generator | None = None,
                    ga_config: GAConfig | None = None,
                    full_config: FullSearchConfig | None = None) -> Optimizer:
-    """Build the named optimiser ("ga" or "full") over ``space``."""
+    """Build the named optimiser over ``space``.
+
+    "ga" and "full" are the paper's methods (with ``ga_config`` / ``full_config``); "rga"
+    (real-coded GA), "cma" (CMA-ES with IPOP restarts) and "de" (differential evolution)
+    use their default settings.
+    """
+    from photomodel.search import CMAES, DifferentialEvolution, RealGA
+
     if name == "ga":
         return BinaryGA(space, ga_config, rng=rng)
     if name == "full":
         return FullSearch(space, full_config)
-    raise ValueError(f"optimizer: expected 'ga' or 'full', got {name!r}")
+    if name == "rga":
+        return RealGA(space, rng=rng)
+    if name == "cma":
+        return CMAES(space, rng=rng)
+    if name == "de":
+        return DifferentialEvolution(space, rng=rng)
+    raise ValueError(f"optimizer: expected 'ga', 'full', 'rga', 'cma' or 'de', got {name!r}")
 
 
 def locate(

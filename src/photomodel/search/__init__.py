@@ -1,23 +1,37 @@
-"""Pose search behind one ask/tell interface: the paper's binary GA and full (grid) search."""
+"""Pose search behind one ask/tell interface.
+
+The paper's binary GA and full (grid) search, and for comparison a real-coded GA, CMA-ES
+with IPOP restarts and differential evolution.
+"""
 
 from photomodel.search._base import Optimizer, SearchResult, run_search
+from photomodel.search._cmaes import CMAES, CMAConfig
+from photomodel.search._de import DEConfig, DifferentialEvolution
 from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
+from photomodel.search._realga import RealGA, RealGAConfig
 from photomodel.search._refine import GlobalThenLocal, LocalRefine, RefineConfig
 from photomodel.search._space import GENE_NAMES, SearchSpace
 
-OPTIMIZERS = {"ga": BinaryGA, "full": FullSearch}
+OPTIMIZERS = {"ga": BinaryGA, "full": FullSearch, "rga": RealGA, "cma": CMAES,
+              "de": DifferentialEvolution}
 
 __all__ = [
+    "CMAES",
     "GENE_NAMES",
     "OPTIMIZERS",
     "BinaryGA",
+    "CMAConfig",
+    "DEConfig",
+    "DifferentialEvolution",
     "FullSearch",
     "FullSearchConfig",
     "GAConfig",
     "GlobalThenLocal",
     "LocalRefine",
     "Optimizer",
+    "RealGA",
+    "RealGAConfig",
     "RefineConfig",
     "SearchResult",
     "SearchSpace",

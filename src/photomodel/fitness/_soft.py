@@ -1,0 +1,180 @@
+"""The ``soft`` fitness: eq. (9) with graded colour agreement, sampled at sub-pixel positions.
+
+Same structure as the paper's fitness (:mod:`photomodel.fitness._paper`): points inside the
+model vote for a pose when the images show the model's colour there, points of the band
+around it vote against when they show the garment's colour, and the two cameras are
+averaged. What changes, and why:
+
+* **Colour**: the log-opponent features of :mod:`photomodel.image._features` instead of the
+  hue alone, so grey, white and black fabric are matched by lightness where hue has nothing
+  to say.
+* **Light**: for each candidate pose and camera, the mean difference ``o = (o_l, o_a, o_b)``
+  between the image and the model over the projected inner points is taken out before
+  comparing (an exposure change shifts ``l``, a lamp of another colour shifts ``a`` and
+  ``b``). Chromatic shifts are not free: ``wb_weight * (o_a^2 + o_b^2)`` is subtracted, so a
+  red model does not fit a green garment by calling it a green lamp.
+* **Graded votes**: a point's agreement is ``exp(-d^2 / 2)`` with
+  ``d^2 = dl^2 / sigma_l^2 + (da^2 + db^2) / sigma_c^2`` after the offsets, in [0, 1].
+* **Balanced terms**: ``F_c = mean_in agreement - mean_out agreement - penalty``; both means
+  run over all points of their set, so ``F`` lies in [-1, 1] and is the score. An inner
+  point outside the image agrees 0 and a band point outside it agrees 1: with the offsets
+  free, a model laid on a plain table matches it inside, and only the band's contrast tells
+  it from the garment, so a band that leaves the image must not count as contrast.
+* **Sub-pixel**: bilinear samples of smoothed feature images and of their Gaussian pyramid,
+  so the fitness changes continuously with the pose, which a local refinement needs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from photomodel.camera import StereoRig
+from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
+from photomodel.geometry import pose_vectors_to_matrices
+from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.model import PhotoModel
+
+__all__ = ["SoftFitness", "SoftMatch", "StereoFeatures"]
+
+
+@dataclass(frozen=True)
+class SoftMatch:
+    """Colour agreement of the ``soft`` fitness.
+
+    Attributes
+    ----------
+    sigma_l : float
+        Lightness tolerance (natural-log units: 0.1 is about 10 % brighter or darker).
+    sigma_c : float
+        Tolerance of the two chroma channels.
+    wb_weight : float
+        Cost per squared unit of chroma offset (a colour cast the pose must assume).
+    smooth_sigma_px : float
+        Gaussian smoothing of the level-0 feature images against sensor noise.
+    """
+
+    sigma_l: float = 0.12
+    sigma_c: float = 0.12
+    wb_weight: float = 0.1
+    smooth_sigma_px: float = 0.7
+
+    def __post_init__(self) -> None:
+        if not (self.sigma_l > 0 and self.sigma_c > 0 and self.wb_weight >= 0
+                and self.smooth_sigma_px >= 0):
+            raise ValueError(f"SoftMatch: expected positive tolerances, got {self}")
+
+
+class StereoFeatures:
+    """Feature pyramids of one stereo pair, computed once and shared by every model and level.
+
+    Parameters
+    ----------
+    rig : StereoRig
+    right_bgr, left_bgr : ndarray (H, W, 3) uint8
+        Camera 1 and camera 2 images (sizes checked against the calibration).
+    levels : int
+        Pyramid levels (level k is 2**k times coarser).
+    match : SoftMatch, optional
+    """
+
+    def __init__(self, rig: StereoRig, right_bgr: NDArray[np.uint8],
+                 left_bgr: NDArray[np.uint8], levels: int = 4,
+                 match: SoftMatch | None = None) -> None:
+        rig.cam1.check_image(right_bgr, "right image")
+        rig.cam2.check_image(left_bgr, "left image")
+        self.rig = rig
+        self.match = match or SoftMatch()
+        sigma = self.match.smooth_sigma_px
+        self.pyramids = (feature_pyramid(log_opponent(right_bgr, sigma), levels),
+                         feature_pyramid(log_opponent(left_bgr, sigma), levels))
+
+    @property
+    def levels(self) -> int:
+        """Number of pyramid levels."""
+        return len(self.pyramids[0])
+
+    def camera_matrices(self, level: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Camera matrices (3, 3) of both cameras at ``level`` (first two rows / 2**level)."""
+        scale = np.diag([0.5**level, 0.5**level, 1.0])
+        return scale @ self.rig.cam1.K, scale @ self.rig.cam2.K
+
+
+HAND_MM_PER_PX = 0.86
+"""Garment millimetres per level-0 pixel of the hand cameras at the working distance (about
+685 mm at f = 800 px): converts the pyramid's blur into the model photo's."""
+
+
+def level_spacing(level: int, base: SampleSpacing | None = None) -> SampleSpacing:
+    """Sample spacing for pyramid ``level``: ``base`` scaled by 2**level, and the model blur
+    matched to the level's (``cv2.pyrDown`` adds about one pixel of its input per level, so
+    level k has a blur of sqrt((4**k - 1) / 3) level-0 pixels on top of the camera's)."""
+    base = base or SampleSpacing()
+    blur_px = np.sqrt((4.0**level - 1.0) / 3.0 + (base.blur_mm / HAND_MM_PER_PX) ** 2)
+    return base.scaled(2.0**level, blur_mm=float(blur_px * HAND_MM_PER_PX))
+
+
+class SoftFitness:
+    """The ``soft`` fitness of one model at one pyramid level (see the module docstring).
+
+    Parameters
+    ----------
+    model : PhotoModel
+    features : StereoFeatures
+    level : int
+        Pyramid level to sample (0 = full resolution).
+    spacing : SampleSpacing, optional
+        Defaults to :func:`level_spacing` of ``level``.
+    palette_weight : float
+        A sample agrees at least this fraction as well as the best of the garment's main
+        colours (is it garment at all?), not only as well as its own point's colour (is it
+        this part of the garment?). 0 = own colours only. A print's own pattern makes narrow
+        peaks; the palette widens them to the garment's size, for the global search.
+    name : str
+    """
+
+    def __init__(self, model: PhotoModel, features: StereoFeatures, level: int = 0,
+                 spacing: SampleSpacing | None = None, *, palette_weight: float = 0.0,
+                 name: str = "soft") -> None:
+        if not 0 <= level < features.levels:
+            raise ValueError(f"level: expected 0..{features.levels - 1}, got {level}")
+        self.name = name
+        self.model = model
+        self.features = features
+        self.level = level
+        self.samples: ModelSamples = model_samples(model, spacing or level_spacing(level))
+        if not 0.0 <= palette_weight <= 1.0:
+            raise ValueError(f"palette_weight: expected [0, 1], got {palette_weight}")
+        self.palette_weight = float(palette_weight)
+        self.palette = self.samples.palette if palette_weight > 0 else np.zeros((0, 3))
+        self.K1, self.K2 = features.camera_matrices(level)
+        m = features.match
+        self._args = (1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2, float(m.wb_weight))
+        self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
+
+    def score(self, fitness: float) -> float:
+        """The fitness clipped to [0, 1] (it is already normalised)."""
+        return float(np.clip(fitness, 0.0, 1.0))
+
+    def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Fitness (P,) of pose vectors (P, 6) = (x, y, z mm, eps1, eps2, eps3)."""
+        return self.evaluate_transforms(pose_vectors_to_matrices(poses))
+
+    def evaluate_transforms(self, T_cam1_model: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Fitness (P,) of transforms (P, 4, 4); per-camera terms kept in ``last_terms``."""
+        from photomodel.fitness._soft_kernels import soft_fitness_kernel
+
+        T = np.ascontiguousarray(np.asarray(T_cam1_model, dtype=np.float64).reshape(-1, 4, 4))
+        rig, s = self.features.rig, self.samples
+        img1 = self.features.pyramids[0][self.level]
+        img2 = self.features.pyramids[1][self.level]
+        f = np.empty(len(T))
+        terms = np.empty((len(T), 2, 6))
+        soft_fitness_kernel(np.ascontiguousarray(T[:, :3, :3]), np.ascontiguousarray(T[:, :3, 3]),
+                            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
+                            rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out, self.palette, self.palette_weight, img1, img2,
+                            *self._args, f, terms)
+        self.last_terms = terms
+        return f

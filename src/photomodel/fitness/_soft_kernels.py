@@ -1,0 +1,133 @@
+"""Numba kernel of the ``soft`` fitness: project, sample bilinearly, compare colours."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from photomodel.fitness._kernels import _project
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _bilinear(img, u, v, out):  # pragma: no cover - compiled
+    h = img.shape[0]
+    w = img.shape[1]
+    if not (u >= 0.0 and v >= 0.0 and u <= w - 1.0 and v <= h - 1.0):
+        return False
+    iu = min(int(u), w - 2)
+    iv = min(int(v), h - 2)
+    fu = u - iu
+    fv = v - iv
+    for c in range(3):
+        top = img[iv, iu, c] * (1.0 - fu) + img[iv, iu + 1, c] * fu
+        bottom = img[iv + 1, iu, c] * (1.0 - fu) + img[iv + 1, iu + 1, c] * fu
+        out[c] = top * (1.0 - fv) + bottom * fv
+    return True
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _agreement(sample, colour, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
+    dl = sample[0] - colour[0] - o[0]
+    da = sample[1] - colour[1] - o[1]
+    db = sample[2] - colour[2] - o[2]
+    return np.exp(-0.5 * (dl * dl * inv_var_l + (da * da + db * db) * inv_var_c))
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
+    best = 0.0
+    for k in range(palette.shape[0]):
+        best = max(best, _agreement(sample, palette[k], o, inv_var_l, inv_var_c))
+    return best
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
+                  inv_var_l, inv_var_c, wb_weight, buf, valid, out):  # pragma: no cover - compiled
+    """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
+
+    With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
+    as well as its best palette colour (garment anywhere), not only as well as its own
+    point's colour (this part of the garment).
+    """
+    use_palette = palette.shape[0] > 0
+    n_in = p_in.shape[0]
+    sample = np.empty(3)
+    o = np.zeros(3)
+    n_valid = 0
+    for j in range(n_in):
+        X = R[0, 0] * p_in[j, 0] + R[0, 1] * p_in[j, 1] + t[0]
+        Y = R[1, 0] * p_in[j, 0] + R[1, 1] * p_in[j, 1] + t[1]
+        Z = R[2, 0] * p_in[j, 0] + R[2, 1] * p_in[j, 1] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        ok = _bilinear(img, u, v, sample)
+        valid[j] = ok
+        if ok:
+            n_valid += 1
+            for c in range(3):
+                buf[j, c] = sample[c]
+                o[c] += sample[c] - f_in[j, c]
+    if n_valid == 0:
+        for k in range(6):
+            out[k] = 0.0
+        return
+    for c in range(3):
+        o[c] /= n_valid
+    s_in = 0.0
+    for j in range(n_in):
+        if valid[j]:
+            a = _agreement(buf[j], f_in[j], o, inv_var_l, inv_var_c)
+            if use_palette:
+                a = max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
+                                                            inv_var_c))
+            s_in += a
+    s_out = 0.0
+    for j in range(p_out.shape[0]):
+        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
+        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
+        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        if _bilinear(img, u, v, sample):
+            a = _agreement(sample, f_out[j], o, inv_var_l, inv_var_c)
+            if use_palette:
+                a = max(a, palette_weight * _best_agreement(sample, palette, o, inv_var_l,
+                                                            inv_var_c))
+            s_out += a
+        else:  # no contrast seen where the band leaves the image: as bad as garment there
+            s_out += 1.0
+    s_in /= n_in
+    if p_out.shape[0] > 0:
+        s_out /= p_out.shape[0]
+    out[0] = s_in - s_out - wb_weight * (o[1] * o[1] + o[2] * o[2])
+    out[1] = s_in
+    out[2] = s_out
+    out[3] = o[0]
+    out[4] = o[1]
+    out[5] = o[2]
+
+
+@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, palette,
+                        palette_weight, img1, img2,
+                        inv_var_l, inv_var_c, wb_weight, out_f, out_terms
+                        ):  # pragma: no cover - compiled
+    """Fill ``out_f`` (P,) with the fitness and ``out_terms`` (P, 2, 6) with each camera's
+    (F_c, S_in agreement, S_out agreement, offsets l, a, b)."""
+    n_in = p_in.shape[0]
+    for p in prange(Rs.shape[0]):
+        R1 = Rs[p]
+        t1 = ts[p]
+        R2 = np.empty((3, 3))
+        t2 = np.empty(3)
+        for i in range(3):
+            t2[i] = T21[i]
+            for k in range(3):
+                t2[i] += R21[i, k] * t1[k]
+                R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
+        buf = np.empty((n_in, 3))
+        valid = np.empty(n_in, dtype=np.bool_)
+        _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight, img1, inv_var_l, inv_var_c,
+                      wb_weight, buf, valid, out_terms[p, 0])
+        _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight, img2, inv_var_l, inv_var_c,
+                      wb_weight, buf, valid, out_terms[p, 1])
+        out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])

@@ -1,0 +1,66 @@
+"""Log-opponent colour features: the per-pixel colour the ``soft`` fitness compares.
+
+A pixel's colour (B, G, R in 0..255) becomes three log-opponent channels::
+
+    l = (ln R' + ln G' + ln B') / 3         lightness
+    a = ln R' - ln G'                       red-green
+    b = (ln R' + ln G') / 2 - ln B'         yellow-blue
+
+with ``X' = X + offset`` (offset 8 grey levels keeps the logarithm of dark, noisy pixels
+from swinging). A change of exposure adds a constant to ``l`` alone; a change of the light's
+colour under a fixed white balance (the von Kries model) adds constants to ``a`` and ``b``.
+Both become offsets that the fitness estimates per candidate pose instead of thresholds that
+fail under the next lamp: this is what lets grey, black and white fabric (no hue) be matched
+by lightness, where the hue code has nothing to compare.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["LOG_OFFSET", "feature_pyramid", "log_opponent"]
+
+LOG_OFFSET = 8.0
+"""Grey levels added before the logarithm."""
+
+_LUT = np.log(np.arange(256, dtype=np.float64) + LOG_OFFSET).astype(np.float32)
+# Rows give (l, a, b) from (ln B, ln G, ln R), the channel order of OpenCV images.
+_OPPONENT = np.array([[1 / 3, 1 / 3, 1 / 3],
+                      [0.0, -1.0, 1.0],
+                      [-1.0, 0.5, 0.5]], dtype=np.float32)
+
+
+def log_opponent(image_bgr: NDArray[np.uint8], smooth_sigma_px: float = 0.0
+                 ) -> NDArray[np.float32]:
+    """Log-opponent features (H, W, 3) float32, channels (l, a, b), of a BGR image (H, W, 3).
+
+    Parameters
+    ----------
+    image_bgr : ndarray (H, W, 3) uint8
+    smooth_sigma_px : float
+        Gaussian smoothing of the features against sensor noise (0 = none).
+    """
+    img = np.asarray(image_bgr)
+    if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+        raise ValueError(f"image_bgr: expected (H, W, 3) uint8, got {img.shape} {img.dtype}")
+    logs = cv2.LUT(img, _LUT.reshape(1, 256).repeat(3, axis=0).T.reshape(256, 1, 3).copy())
+    feat = cv2.transform(logs, _OPPONENT)
+    if smooth_sigma_px > 0:
+        feat = cv2.GaussianBlur(feat, (0, 0), smooth_sigma_px)
+    return np.ascontiguousarray(feat, dtype=np.float32)
+
+
+def feature_pyramid(features: NDArray[np.float32], levels: int) -> list[NDArray[np.float32]]:
+    """``levels`` Gaussian pyramid levels of a feature image, level 0 the image itself.
+
+    Level ``k`` is ``cv2.pyrDown`` applied ``k`` times: its pixel (u, v) lies at level-0 pixel
+    ``(2**k u, 2**k v)``, so a camera matrix scales by ``2**-k`` in its first two rows.
+    """
+    if levels < 1:
+        raise ValueError(f"levels: expected >= 1, got {levels}")
+    out = [np.ascontiguousarray(features, dtype=np.float32)]
+    for _ in range(levels - 1):
+        out.append(np.ascontiguousarray(cv2.pyrDown(out[-1])))
+    return out
