@@ -107,5 +107,6 @@ def test_distortion_from_filestorage_calibration_is_honoured(tmp_path, plaid_cas
     exy, ez, eth = pose_errors(good, scene.T_cam1_model)
     assert exy < XY_TOL_MM and eth < THETA_TOL_DEG and ez < Z_TOL_MM, (exy, ez, eth)
     nxy, nz, nth = pose_errors(naive, scene.T_cam1_model)
-    assert nxy >= XY_TOL_MM or nth >= THETA_TOL_DEG or nz >= Z_TOL_MM, (nxy, nz, nth)
+    # Ignoring the distortion costs several mm of depth even where the fit still holds.
+    assert nz >= 3.0 * ez + 3.0 or nxy >= XY_TOL_MM or nth >= THETA_TOL_DEG, (ez, nxy, nz, nth)
     assert good.score > naive.score

@@ -28,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
-    p.add_argument("--fitness", default="balanced", help="fitness preset (balanced, paper)")
+    p.add_argument("--fitness", default="soft", help="fitness (soft, balanced, paper)")
     p.add_argument("--optimizer", choices=("ga", "full", "rga", "cma", "de"), default="ga")
     p.add_argument("--no-refine", action="store_true", help="skip the local refinement")
     p.add_argument("--paper", action="store_true",

@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
     p.add_argument("--optimizer", choices=("ga", "full", "rga", "cma", "de"), default="ga",
                    help="the paper's binary GA (default) or full grid search")
-    p.add_argument("--fitness", choices=sorted(FITNESS_PRESETS), default=DEFAULT_FITNESS,
+    p.add_argument("--fitness", choices=sorted([*FITNESS_PRESETS, "soft"]), default=DEFAULT_FITNESS,
                    help=f"fitness function (default {DEFAULT_FITNESS})")
     p.add_argument("--no-refine", action="store_true",
                    help="skip the local refinement after the global search")
@@ -104,7 +104,7 @@ def format_result(result: LocateResult) -> str:
     s = result.search
     return "\n".join([
         f"model       {result.model}: {'found' if result.found else 'NOT found'} "
-        f"(score {result.score:.3f}, fitness {result.fitness:.1f})",
+        f"(score {result.score:.3f}, fitness {result.fitness:.3g})",
         f"position    x {result.position_mm[0]:.2f}  y {result.position_mm[1]:.2f}  "
         f"z {result.position_mm[2]:.2f} mm (camera 1)",
         f"theta       {result.theta_deg:.2f} deg",

@@ -71,7 +71,7 @@ class ExperimentConfig:
     conditions: tuple[str, ...] = ("paper",)
     trials: int = 1000
     seed: int = 0
-    fitness: str = "balanced"
+    fitness: str = "soft"
     optimizer: str = "ga"
     refine: bool = True
     paper: bool = False

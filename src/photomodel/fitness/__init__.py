@@ -1,17 +1,27 @@
-"""Fitness functions over whole pose populations: the paper's eq. (9) and hue matching."""
+"""Fitness functions over whole pose populations: the paper's eq. (9) with hue matching, and
+the ``soft`` fitness (graded log-opponent colour, sub-pixel, over a feature pyramid)."""
 
 from photomodel.fitness._base import Fitness
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
+from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
+from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, level_spacing
 
 __all__ = [
     "FITNESS_PRESETS",
     "Fitness",
     "HueMatch",
+    "ModelSamples",
     "PaperFitness",
     "PaperVotes",
+    "SampleSpacing",
+    "SoftFitness",
+    "SoftMatch",
+    "StereoFeatures",
     "hue_code_image",
     "hue_codes",
     "hue_codes_match",
+    "level_spacing",
     "make_fitness",
+    "model_samples",
 ]

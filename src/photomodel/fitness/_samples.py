@@ -21,8 +21,8 @@ are dropped by a distance-transform check.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 import weakref
+from dataclasses import dataclass
 
 import cv2
 import numpy as np

@@ -174,7 +174,7 @@ class SoftFitness:
         terms = np.empty((len(T), 2, 6))
         soft_fitness_kernel(np.ascontiguousarray(T[:, :3, :3]), np.ascontiguousarray(T[:, :3, 3]),
                             rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
-                            rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out, self.palette, self.palette_weight, img1, img2,
-                            *self._args, f, terms)
+                            rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
+                            self.palette, self.palette_weight, img1, img2, *self._args, f, terms)
         self.last_terms = terms
         return f

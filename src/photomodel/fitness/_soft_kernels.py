@@ -126,8 +126,8 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
                 R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
         buf = np.empty((n_in, 3))
         valid = np.empty(n_in, dtype=np.bool_)
-        _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight, img1, inv_var_l, inv_var_c,
-                      wb_weight, buf, valid, out_terms[p, 0])
-        _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight, img2, inv_var_l, inv_var_c,
-                      wb_weight, buf, valid, out_terms[p, 1])
+        _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,
+                      img1, inv_var_l, inv_var_c, wb_weight, buf, valid, out_terms[p, 0])
+        _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight,
+                      img2, inv_var_l, inv_var_c, wb_weight, buf, valid, out_terms[p, 1])
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])

@@ -42,7 +42,7 @@ S_in points match in both images, on a garment-free table well under 0.3 do."""
 
 OptimizerName = Literal["ga", "full", "rga", "cma", "de"]
 
-DEFAULT_FITNESS = "balanced"
+DEFAULT_FITNESS = "soft"
 
 PAPER_METHOD: dict[str, Any] = {
     "fitness": "paper", "optimizer": "ga", "refine": False, "ga_config": GAConfig.paper()}
@@ -148,8 +148,11 @@ def locate(
         Images of camera 1 and camera 2; sizes are checked against the calibration.
     optimizer : {"ga", "full"}
         The paper's binary GA (default) or the full grid search.
-    fitness : {"paper", "balanced"}
-        The named fitness (:data:`photomodel.fitness.FITNESS_PRESETS`).
+    fitness : {"soft", "paper", "balanced"}
+        ``"soft"`` (default): :class:`~photomodel.fitness.SoftFitness` searched coarse to fine
+        over a feature pyramid (:func:`~photomodel.search.pyramid_search`; ``optimizer``,
+        ``refine`` and the GA settings do not apply). Otherwise a fitness of
+        :data:`photomodel.fitness.FITNESS_PRESETS` searched by ``optimizer``.
     refine : bool
         Follow the global search with :class:`~photomodel.search.LocalRefine`.
     rng : int, Generator or None
@@ -168,9 +171,11 @@ def locate(
     rig.cam1.check_image(right_bgr, "right image")
     rig.cam2.check_image(left_bgr, "left image")
     t0 = time.perf_counter()
-    objective = make_fitness(fitness, model, rig, right_bgr, left_bgr)
     space = space or SearchSpace.from_ranges()
     gen = np.random.default_rng(rng)
+    if fitness == "soft":
+        return _locate_soft(model, rig, right_bgr, left_bgr, space, gen, min_score, t0)
+    objective = make_fitness(fitness, model, rig, right_bgr, left_bgr)
     opt = make_optimizer(optimizer, space, gen, ga_config, full_config)
     if refine:
         opt = GlobalThenLocal(opt, space, refine_config, gen)
@@ -180,3 +185,20 @@ def locate(
     score = objective.score(result.fitness)
     return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
                         seconds, result)
+
+
+def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+                 left_bgr: NDArray[np.uint8], space: SearchSpace, rng: np.random.Generator,
+                 min_score: float, t0: float) -> LocateResult:
+    """The ``soft`` fitness searched coarse to fine (:func:`~photomodel.search.pyramid_search`)."""
+    from photomodel.fitness import SoftFitness, StereoFeatures
+    from photomodel.search import pyramid_search
+
+    features = StereoFeatures(rig, right_bgr, left_bgr)
+    result = pyramid_search(
+        lambda level, weight: SoftFitness(model, features, level, palette_weight=weight),
+        space, rng=rng)
+    T = pose_vectors_to_matrices(result.x)[0]
+    score = float(np.clip(result.fitness, 0.0, 1.0))
+    return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
+                        time.perf_counter() - t0, result)

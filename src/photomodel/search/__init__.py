@@ -9,6 +9,7 @@ from photomodel.search._cmaes import CMAES, CMAConfig
 from photomodel.search._de import DEConfig, DifferentialEvolution
 from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
+from photomodel.search._pyramid import PyramidConfig, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
 from photomodel.search._refine import GlobalThenLocal, LocalRefine, RefineConfig
 from photomodel.search._space import GENE_NAMES, SearchSpace
@@ -30,10 +31,12 @@ __all__ = [
     "GlobalThenLocal",
     "LocalRefine",
     "Optimizer",
+    "PyramidConfig",
     "RealGA",
     "RealGAConfig",
     "RefineConfig",
     "SearchResult",
     "SearchSpace",
+    "pyramid_search",
     "run_search",
 ]
