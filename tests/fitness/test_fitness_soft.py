@@ -1,0 +1,84 @@
+"""The soft fitness: colour features, light offsets, sub-pixel peaks and the pyramid search."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
+from photomodel.fitness import SoftFitness, StereoFeatures, model_samples
+from photomodel.fitness._soft import level_spacing
+from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
+from photomodel.image._features import log_opponent
+from photomodel.search import SearchSpace, pyramid_search
+
+
+@lru_cache(maxsize=16)
+def _case(garment: str, condition: str = "paper"):
+    config = ExperimentConfig(garments=(garment,), conditions=(condition,), trials=1, seed=0)
+    return trial_inputs(config, Trial(f"{condition}_{garment}_0000", garment, condition, 0))
+
+
+def _vector(T: np.ndarray) -> np.ndarray:
+    q = Rotation.from_matrix(T[:3, :3]).as_quat()  # x, y, z, w
+    q = -q if q[3] < 0 else q
+    return np.r_[T[:3, 3], q[:3]]
+
+
+def test_log_opponent_matches_its_definition() -> None:
+    img = np.random.default_rng(0).integers(0, 256, (20, 30, 3), dtype=np.uint8)
+    b, g, r = (np.log(img[..., k].astype(float) + 8.0) for k in range(3))
+    expected = np.stack([(b + g + r) / 3, r - g, (r + g) / 2 - b], axis=-1)
+    np.testing.assert_allclose(log_opponent(img), expected, atol=1e-5)
+    with pytest.raises(ValueError, match="image_bgr"):
+        log_opponent(img[..., 0])
+
+
+def test_samples_straddle_the_outline() -> None:
+    model = _case("No.6")[0]
+    s = model_samples(model, level_spacing(0))
+    assert len(s.p_in) > 500 and len(s.p_out) > 500 and s.palette.shape[1] == 3
+    np.testing.assert_allclose(s.p_in[:, :2].mean(axis=0), 0.0, atol=3.0)  # model origin
+    # Band points lie farther from the centroid than the inner ring on average.
+    assert np.linalg.norm(s.p_out[:, :2], axis=1).mean() > np.linalg.norm(
+        s.p_in[:, :2], axis=1).mean()
+
+
+@pytest.mark.parametrize(("garment", "condition"), [
+    ("No.6", "paper"),       # grey sock on a grey table: no hue at all
+    ("No.8", "paper"),       # white towel
+    ("No.1", "dim"),         # plaid, 40 % of the light
+    ("No.2", "warm-light"),  # navy trousers under a 3000 K lamp
+])
+def test_true_pose_is_the_peak(garment: str, condition: str) -> None:
+    model, rig, right, left, T_true, _ = _case(garment, condition)
+    fit = SoftFitness(model, StereoFeatures(rig, right, left), level=0)
+    x0 = _vector(T_true)
+    moves = np.array([[2, 0, 0, 0, 0, 0], [0, -2, 0, 0, 0, 0], [0, 0, 15, 0, 0, 0],
+                      [0, 0, 0, 0, 0, 0.02], [6, 6, 0, 0, 0, 0]], dtype=float)
+    f = fit(np.vstack([x0, x0 + moves]))
+    assert f[0] > 0.45, f[0]
+    assert np.all(f[0] > f[1:]), f
+
+
+def test_light_offsets_are_estimated() -> None:
+    model, rig, right, left, T_true, _ = _case("No.1", "dim")
+    fit = SoftFitness(model, StereoFeatures(rig, right, left), level=1)
+    fit(_vector(T_true)[None])
+    lightness_offset = fit.last_terms[0, :, 3]
+    assert np.all(lightness_offset < -0.3), lightness_offset  # darker than the model photo
+
+
+def test_pyramid_search_finds_a_grey_garment() -> None:
+    model, rig, right, left, T_true, _ = _case("No.6")
+    features = StereoFeatures(rig, right, left)
+    result = pyramid_search(lambda lv, w: SoftFitness(model, features, lv, palette_weight=w),
+                            SearchSpace.from_ranges(), rng=0)
+    T = pose_vectors_to_matrices(result.x)[0]
+    assert np.hypot(*(T[:2, 3] - T_true[:2, 3])) < 2.0
+    assert abs(T[2, 3] - T_true[2, 3]) < 10.0
+    dtheta = np.degrees(in_plane_angle_rad(T[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
+    assert abs(dtheta) < 1.0
