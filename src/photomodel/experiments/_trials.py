@@ -231,7 +231,10 @@ def trial_record(trial: Trial, result: LocateResult, T_true: np.ndarray,
 
 def limit_threads() -> None:
     """Worker initialiser: one numba thread per process (processes give the parallelism)."""
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    import sys
+
+    if "numba" not in sys.modules:  # once numba's threads run, the variable must not change
+        os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     import numba
 
     numba.set_num_threads(1)
