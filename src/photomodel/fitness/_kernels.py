@@ -50,6 +50,20 @@ def _count(R, t, K, D, pts, codes, min_sat, img, sat, thr):  # pragma: no cover 
     return n
 
 
+@njit(cache=True, inline="always")
+def camera2_pose(R1, t1, R21, T21):  # pragma: no cover - compiled
+    """Model pose in camera 2, (R2, t2), from the pose (R1, t1) in camera 1 and the rig's
+    ``X2 = R21 X1 + T21``."""
+    R2 = np.empty((3, 3))
+    t2 = np.empty(3)
+    for i in range(3):
+        t2[i] = T21[i]
+        for k in range(3):
+            t2[i] += R21[i, k] * t1[k]
+            R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
+    return R2, t2
+
+
 @njit(cache=True, parallel=True)
 def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, s_in, p_out, c_out,
                          s_out, img1, sat1, img2, sat2, thr, vote_in, vote_out, out_f, out_counts
@@ -64,13 +78,7 @@ def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, s_in, p_o
     for p in prange(Rs.shape[0]):
         R1 = Rs[p]
         t1 = ts[p]
-        R2 = np.empty((3, 3))
-        t2 = np.empty(3)
-        for i in range(3):
-            t2[i] = T21[i]
-            for k in range(3):
-                t2[i] += R21[i, k] * t1[k]
-                R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
+        R2, t2 = camera2_pose(R1, t1, R21, T21)
         a = _count(R1, t1, K1, D1, p_in, c_in, s_in, img1, sat1, thr)
         b = _count(R1, t1, K1, D1, p_out, c_out, s_out, img1, sat1, thr)
         c = _count(R2, t2, K2, D2, p_in, c_in, s_in, img2, sat2, thr)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from photomodel.fitness._kernels import _project
+from photomodel.fitness._kernels import _project, camera2_pose
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -117,13 +117,7 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
     for p in prange(Rs.shape[0]):
         R1 = Rs[p]
         t1 = ts[p]
-        R2 = np.empty((3, 3))
-        t2 = np.empty(3)
-        for i in range(3):
-            t2[i] = T21[i]
-            for k in range(3):
-                t2[i] += R21[i, k] * t1[k]
-                R2[i, k] = R21[i, 0] * R1[0, k] + R21[i, 1] * R1[1, k] + R21[i, 2] * R1[2, k]
+        R2, t2 = camera2_pose(R1, t1, R21, T21)
         buf = np.empty((n_in, 3))
         valid = np.empty(n_in, dtype=np.bool_)
         _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,

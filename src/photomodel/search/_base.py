@@ -73,6 +73,17 @@ def run_search(
     return optimizer.result
 
 
+def generation_stop(generation: int, since_improvement: int, max_generations: int,
+                    patience: int) -> str | None:
+    """The generational optimisers' stop rule: a generation limit, or ``patience``
+    generations without improvement (checked after restarts are spent)."""
+    if generation >= max_generations:
+        return f"max_generations ({max_generations})"
+    if since_improvement >= patience:
+        return f"no improvement for {patience} generations"
+    return None
+
+
 class _Tracker:
     """Best-so-far bookkeeping shared by the optimisers."""
 

@@ -87,13 +87,7 @@ class DifferentialEvolution:
         self.config = c = config or DEConfig()
         self.rng = np.random.default_rng(rng)
         self.unit = UnitBox(space)
-        start = self.unit.start(x0, sigma0)
-        if start is None:
-            self.pop = self.rng.random((c.population, 6))
-        else:
-            u0, s0 = start
-            draws = u0 + s0 * self.rng.standard_normal((c.population - 1, 6))
-            self.pop = np.vstack([u0, np.clip(draws, 0.0, 1.0)])
+        self.pop, _ = self.unit.initial_population(self.rng, c.population, x0, sigma0)
         self.pop_f: NDArray[np.float64] | None = None  # None until the first tell
         self._trials: NDArray[np.float64] | None = self.pop
         self._tracker = _Tracker()

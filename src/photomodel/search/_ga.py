@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel.search._base import SearchResult, _Tracker
+from photomodel.search._base import SearchResult, _Tracker, generation_stop
 from photomodel.search._space import SearchSpace
 
 __all__ = ["BinaryGA", "GAConfig"]
@@ -155,11 +155,8 @@ class BinaryGA:
 
     def stop(self) -> str | None:
         """Why the search stopped, or None while it goes on."""
-        if self.generation >= self.config.max_generations:
-            return f"max_generations ({self.config.max_generations})"
-        if self._since_improvement >= self.config.patience:
-            return f"no improvement for {self.config.patience} generations"
-        return None
+        return generation_stop(self.generation, self._since_improvement,
+                               self.config.max_generations, self.config.patience)
 
     @property
     def result(self) -> SearchResult:

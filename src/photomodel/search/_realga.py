@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from photomodel.search._base import SearchResult, _Tracker
+from photomodel.search._base import SearchResult, _Tracker, generation_stop
 from photomodel.search._space import SearchSpace
 from photomodel.search._unit import UnitBox, reflect
 
@@ -116,14 +116,9 @@ class RealGA:
         self.config = c = config or RealGAConfig()
         self.rng = np.random.default_rng(rng)
         self.unit = UnitBox(space)
-        start = self.unit.start(x0, sigma0)
+        self.pop, s0 = self.unit.initial_population(self.rng, c.population, x0, sigma0)
         self.step = np.full(6, c.mutation_step)
-        if start is None:
-            self.pop = self.rng.random((c.population, 6))
-        else:
-            u0, s0 = start
-            draws = u0 + s0 * self.rng.standard_normal((c.population - 1, 6))
-            self.pop = np.vstack([u0, np.clip(draws, 0.0, 1.0)])
+        if s0 is not None:
             self.step = np.minimum(self.step, s0)
         self._tracker = _Tracker()
         self._since_improvement = 0
@@ -182,11 +177,8 @@ class RealGA:
 
     def stop(self) -> str | None:
         """Why the search stopped, or None while it goes on."""
-        if self.generation >= self.config.max_generations:
-            return f"max_generations ({self.config.max_generations})"
-        if self._since_improvement >= self.config.patience:
-            return f"no improvement for {self.config.patience} generations"
-        return None
+        return generation_stop(self.generation, self._since_improvement,
+                               self.config.max_generations, self.config.patience)
 
     @property
     def result(self) -> SearchResult:

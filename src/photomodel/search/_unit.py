@@ -73,3 +73,19 @@ class UnitBox:
                                  f"got shape {s.shape}: {s}")
             s0 = s / self._scale
         return self.to_unit(x), s0
+
+    def initial_population(self, rng: np.random.Generator, size: int,
+                           x0: ArrayLike | None, sigma0: ArrayLike | None
+                           ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """A first population (size, 6) in unit coordinates and the start spread.
+
+        Uniform over the box without ``x0``; else ``x0`` itself followed by normal draws of
+        spread ``sigma0`` around it (clipped into the box). The spread (6,) in unit
+        coordinates is returned too (None without ``x0``), see :meth:`start`.
+        """
+        start = self.start(x0, sigma0)
+        if start is None:
+            return rng.random((size, 6)), None
+        u0, s0 = start
+        draws = u0 + s0 * rng.standard_normal((size - 1, 6))
+        return np.vstack([u0, np.clip(draws, 0.0, 1.0)]), s0
