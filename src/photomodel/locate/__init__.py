@@ -6,6 +6,7 @@ from photomodel.locate._locate import (
     PAPER_METHOD,
     LocateResult,
     locate,
+    locate_in_features,
     make_optimizer,
 )
 from photomodel.locate._overlay import draw_overlay
@@ -17,5 +18,6 @@ __all__ = [
     "LocateResult",
     "draw_overlay",
     "locate",
+    "locate_in_features",
     "make_optimizer",
 ]

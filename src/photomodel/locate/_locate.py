@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
-from photomodel.fitness import make_fitness
+from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
 from photomodel.model import PhotoModel
 from photomodel.search import (
@@ -33,6 +33,7 @@ __all__ = [
     "PAPER_METHOD",
     "LocateResult",
     "locate",
+    "locate_in_features",
     "make_optimizer",
 ]
 
@@ -191,13 +192,49 @@ def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8]
                  left_bgr: NDArray[np.uint8], space: SearchSpace, rng: np.random.Generator,
                  min_score: float, t0: float) -> LocateResult:
     """The ``soft`` fitness searched coarse to fine (:func:`~photomodel.search.pyramid_search`)."""
-    from photomodel.fitness import SoftFitness, StereoFeatures
+    features = StereoFeatures(rig, right_bgr, left_bgr)
+    return locate_in_features(model, features, space=space, rng=rng, min_score=min_score, t0=t0)
+
+
+def locate_in_features(
+    model: PhotoModel,
+    features: StereoFeatures,
+    *,
+    space: SearchSpace | None = None,
+    rng: int | np.random.Generator | None = None,
+    min_score: float = DEFAULT_MIN_SCORE,
+    t0: float | None = None,
+) -> LocateResult:
+    """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
+
+    Computing :class:`~photomodel.fitness.StereoFeatures` once and calling this for several
+    models shares the image conversion and pyramids between them (``identify``).
+
+    Parameters
+    ----------
+    model : PhotoModel
+    features : StereoFeatures
+        Both images' feature pyramids and the rig.
+    space : SearchSpace, optional
+        Defaults to the paper's experiment.
+    rng : int, Generator or None
+        Seed of the stochastic search.
+    min_score : float
+        Score in [0, 1] from which the garment counts as found.
+    t0 : float, optional
+        ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
+        from it.
+
+    Returns
+    -------
+    LocateResult
+    """
     from photomodel.search import pyramid_search
 
-    features = StereoFeatures(rig, right_bgr, left_bgr)
+    t0 = time.perf_counter() if t0 is None else t0
     result = pyramid_search(
         lambda level, weight: SoftFitness(model, features, level, palette_weight=weight),
-        space, rng=rng)
+        space or SearchSpace.from_ranges(), rng=np.random.default_rng(rng))
     T = pose_vectors_to_matrices(result.x)[0]
     score = float(np.clip(result.fitness, 0.0, 1.0))
     return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
