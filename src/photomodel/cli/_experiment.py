@@ -38,6 +38,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--focus", default="No.3",
                    help="garment of the report's Table 1, histograms and fitness map")
     p.add_argument("--no-report", action="store_true", help="only record the trials")
+    g = p.add_argument_group(
+        "identification (--identify)",
+        "identify a library's models on scenes with one of them (--garments, --conditions, "
+        "--trials), on empty scenes and on scenes with other things only (--negatives); "
+        "writes identify.csv, identify_summary.json, identify_report.md and confusion.png")
+    g.add_argument("--identify", action="store_true",
+                   help="run the identification experiment instead of the accuracy study")
+    g.add_argument("--library", default=None,
+                   help="garments whose models form the library (names or groups; default: "
+                        "--garments)")
+    g.add_argument("--negatives", default="empty,no-target",
+                   help="conditions without a library garment (default: empty,no-target)")
+    g.add_argument("--negative-trials", type=int, default=10,
+                   help="scenes per negative condition (default 10)")
+    g.add_argument("--max-candidates", type=int, default=3,
+                   help="models searched per scene after the colour screen (default 3)")
+    g.add_argument("--min-score", type=float, default=None,
+                   help="threshold applied (default: the stored, calibrated one)")
+    g.add_argument("--calibrate", action="store_true",
+                   help="calibrate the threshold on this run's records and store it with the "
+                        "package (photomodel/identify/threshold.json)")
     p.set_defaults(run=run)
 
 
@@ -48,19 +69,23 @@ def _split(text: str) -> tuple[str, ...]:
 def run(args: argparse.Namespace) -> int:
     from photomodel.cli._progress import count_progress
     from photomodel.experiments import ExperimentConfig, run_experiment
-    from photomodel.sim import garment_names, parse_conditions
+    from photomodel.sim import expand_garments, garment_names, parse_conditions
 
+    if args.identify:
+        return run_identify(args)
     if args.trials < 1:
         raise InputError("--trials", f"expected at least 1, got {args.trials}")
     if args.workers is not None and args.workers < 1:
         raise InputError("--workers", f"expected at least 1, got {args.workers}")
-    garments = garment_names() if args.garments == "all" else _split(args.garments)
+    try:
+        garments = expand_garments(args.garments) if args.dataset is None else ()
+    except ValueError as exc:
+        raise InputError("--garments", str(exc)) from None
     conditions = _split(args.conditions)
     if args.dataset is None:
-        unknown = [g for g in garments if g not in garment_names()]
-        if unknown or not garments:
-            raise InputError("--garments", f"unknown garment {unknown[0] if unknown else ''!r}; "
-                                           f"the catalogue has {', '.join(garment_names())}")
+        if not garments:
+            raise InputError("--garments", f"no garment named; the catalogue has "
+                                           f"{', '.join(garment_names())}")
         for spec in conditions:
             try:
                 parse_conditions(spec)
@@ -93,4 +118,83 @@ def run(args: argparse.Namespace) -> int:
 
         report = write_experiment_report(args.out, focus=args.focus)
         print(f"report: {report}")
+    return 0
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    """``experiment --identify``: the identification experiment (and, with ``--calibrate``,
+    the threshold calibration)."""
+    from photomodel.cli._progress import count_progress
+    from photomodel.experiments import (
+        IdentifyExperimentConfig,
+        calibrate_from_records,
+        run_identify_experiment,
+    )
+    from photomodel.sim import expand_garments, parse_conditions
+
+    if args.dataset is not None:
+        raise InputError("--dataset", "--identify runs on simulated scenes only")
+    if args.trials < 0 or args.negative_trials < 0:
+        raise InputError("--trials", "expected counts >= 0")
+    if args.workers is not None and args.workers < 1:
+        raise InputError("--workers", f"expected at least 1, got {args.workers}")
+    try:
+        garments = expand_garments(args.garments)
+        library = expand_garments(args.library) if args.library is not None else garments
+    except ValueError as exc:
+        raise InputError("--garments/--library", str(exc)) from None
+    unknown = [g for g in garments if g not in library]
+    if unknown:
+        raise InputError("--library", f"has no model of {unknown[0]!r}, which --garments lays "
+                                      "on the table")
+    conditions, negatives = _split(args.conditions), _split(args.negatives)
+    for option, specs, target in (("--conditions", conditions, True),
+                                  ("--negatives", negatives, False)):
+        for spec in specs:
+            try:
+                has_target = parse_conditions(spec).target
+            except ValueError as exc:
+                raise InputError(option, str(exc)) from None
+            if has_target != target:
+                raise InputError(option, f"{spec!r} {'has no' if target else 'has a'} target "
+                                         "garment")
+    try:
+        config = IdentifyExperimentConfig(
+            library=library, garments=garments, conditions=conditions, trials=args.trials,
+            negatives=negatives, negative_trials=args.negative_trials, seed=args.seed,
+            max_candidates=args.max_candidates,
+            min_score=None if args.calibrate else args.min_score)
+    except ValueError as exc:
+        raise InputError("--identify", str(exc)) from None
+    if args.calibrate:
+        # Decisions need a threshold before the stored one exists: summarise at 0.5 first.
+        config = IdentifyExperimentConfig(**{**config.__dict__, "min_score": 0.5})
+    try:
+        with count_progress("scenes", sys.stderr.isatty()) as progress:
+            summary = run_identify_experiment(args.out, config, workers=args.workers,
+                                              progress=progress)
+    except KeyboardInterrupt:
+        print(f"photomodel: interrupted; finished scenes are in {args.out / 'identify.csv'}; "
+              "run the same command again to continue", file=sys.stderr)
+        return 130
+    except ValueError as exc:
+        raise InputError(args.out, str(exc)) from None
+    if args.calibrate:
+        from photomodel.experiments import write_identify_report
+        from photomodel.identify import save_threshold
+
+        command = "photomodel " + " ".join(sys.argv[1:]) if sys.argv else ""
+        threshold = calibrate_from_records(args.out, command=command)
+        path = save_threshold(threshold)
+        print(f"threshold min_score = {threshold.min_score:.4f} stored in {path}")
+        summary = write_identify_report(args.out, config, min_score=threshold.min_score)
+
+    def pct(x: float | None) -> str:
+        return "n/a" if x is None else f"{100 * x:.1f} %"
+
+    print(f"{args.out}/identify.csv: {summary['garment_scenes']} garment scenes, "
+          f"{summary['negative_scenes']} without; top-1 {pct(summary['top1'])}, rejected "
+          f"{pct(summary['rejection_rate'])}, false acceptance {pct(summary['false_accept'])} "
+          f"at min_score {summary['min_score']:.3f}")
+    print(f"report: {args.out / 'identify_report.md'}")
     return 0

@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from photomodel import __version__
-from photomodel.cli import _build, _demo, _experiment, _locate, _simulate
+from photomodel.cli import _build, _demo, _experiment, _identify, _locate, _models, _simulate
 from photomodel.errors import PhotomodelError
 
 EXIT_INPUT_ERROR = 2
@@ -29,6 +29,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _build.add_parser(sub)
     _locate.add_parser(sub)
+    _identify.add_parser(sub)
+    _models.add_parser(sub)
     _simulate.add_parser(sub)
     _experiment.add_parser(sub)
     _demo.add_parser(sub)

@@ -20,7 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog="conditions (join with '+', e.g. wood+wrinkles): " + ", ".join(CONDITIONS))
     p.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     p.add_argument("--garments", default="all",
-                   help="comma-separated catalogue names (No.1,...,No.12) or 'all' (default)")
+                   help="comma-separated catalogue names (No.1,...,No.12, look-alikes such as "
+                        "No.3-red) or groups: 'all' (the paper's 12, default), 'similar' "
+                        "(look-alike pairs)")
     p.add_argument("--scenes", type=int, default=1, metavar="N",
                    help="scenes per garment and condition (default 1)")
     p.add_argument("--conditions", default="paper",
@@ -47,19 +49,18 @@ def run(args: argparse.Namespace) -> int:
     from photomodel.sim import (
         CONDITIONS,
         contact_sheet,
-        garment_names,
+        expand_garments,
         load_garment,
         parse_conditions,
         write_dataset,
     )
 
-    garments = list(garment_names()) if args.garments == "all" else _split(args.garments)
-    if args.garments != "all" and not garments and not args.add_garment:
+    try:
+        garments = list(expand_garments(args.garments))
+    except ValueError as exc:
+        raise InputError("--garments", str(exc)) from None
+    if not garments and not args.add_garment:
         raise InputError("--garments", "no garment named")
-    unknown = [g for g in garments if g not in garment_names()]
-    if unknown:
-        raise InputError("--garments", f"unknown garment {unknown[0]!r}; the catalogue has "
-                                       f"{', '.join(garment_names())}")
     conditions = list(CONDITIONS) if args.conditions == "all" else _split(args.conditions)
     for spec in conditions:
         try:

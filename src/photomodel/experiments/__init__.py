@@ -4,6 +4,18 @@ the paper's statistics (Table 1) and figures, run locally or on a Dask cluster, 
 The figures (``photomodel.experiments._report``, matplotlib) load only when a report is written.
 """
 
+from photomodel.experiments._identify import (
+    IDENTIFY_COLUMNS,
+    IdentifyExperimentConfig,
+    IdentifyTrial,
+    calibrate_from_records,
+    plan_identify_trials,
+    read_identify_records,
+    run_identify_experiment,
+    run_identify_trial,
+    summarise_identify,
+    write_identify_report,
+)
 from photomodel.experiments._records import (
     COLUMNS,
     append_records,
@@ -32,23 +44,33 @@ from photomodel.experiments._trials import (
 
 __all__ = [
     "COLUMNS",
+    "IDENTIFY_COLUMNS",
     "PAPER_TABLE1",
     "AxisError",
     "ErrorTable",
     "ExperimentConfig",
+    "IdentifyExperimentConfig",
+    "IdentifyTrial",
     "Trial",
     "append_records",
+    "calibrate_from_records",
     "done_trial_ids",
     "error_table",
     "error_tables",
     "garment_summary_markdown",
+    "plan_identify_trials",
     "plan_trials",
+    "read_identify_records",
     "read_records",
     "run_experiment",
+    "run_identify_experiment",
+    "run_identify_trial",
     "run_metadata",
     "run_trial",
+    "summarise_identify",
     "table1_markdown",
     "trial_inputs",
     "trial_record",
+    "write_identify_report",
     "write_experiment_report",
 ]

@@ -10,10 +10,14 @@ its rows and z into the plane; ``T_a_b`` maps frame b to frame a; lengths in mm.
 
 from photomodel.sim._catalogue import (
     CATALOGUE,
+    GARMENT_GROUPS,
+    SIMILAR,
     GarmentSpec,
     catalogue_garment,
+    expand_garments,
     garment_from_image,
     garment_names,
+    known_garments,
     load_garment,
 )
 from photomodel.sim._conditions import (
@@ -92,6 +96,7 @@ __all__ = [
     "CATALOGUE",
     "CONDITIONS",
     "FABRICS",
+    "GARMENT_GROUPS",
     "GARMENT_SHAPES",
     "LENSES",
     "MODEL_DISTANCE_MM",
@@ -101,6 +106,7 @@ __all__ = [
     "PLAID_HUES",
     "PLAIN_HUES",
     "POSITION_RANGE_MM",
+    "SIMILAR",
     "TABLES",
     "TABLE_GREY_BGR",
     "THETA_RANGE_DEG",
@@ -123,6 +129,7 @@ __all__ = [
     "catalogue_garment",
     "contact_sheet",
     "dot_fabric",
+    "expand_garments",
     "expose",
     "garment_from_image",
     "garment_hues",
@@ -133,6 +140,7 @@ __all__ = [
     "hand_stereo_rig",
     "hand_table_pose",
     "hsv_to_bgr",
+    "known_garments",
     "load_garment",
     "make_garment",
     "make_object",

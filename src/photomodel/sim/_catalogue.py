@@ -30,10 +30,14 @@ from photomodel.sim._textures import PlaneTexture
 
 __all__ = [
     "CATALOGUE",
+    "GARMENT_GROUPS",
+    "SIMILAR",
     "GarmentSpec",
     "catalogue_garment",
+    "expand_garments",
     "garment_from_image",
     "garment_names",
+    "known_garments",
     "load_garment",
 ]
 
@@ -111,15 +115,67 @@ CATALOGUE: dict[str, GarmentSpec] = {
 }
 """The 12 garments of the paper's experiment, by name (``"No.1"`` ... ``"No.12"``)."""
 
+SIMILAR: dict[str, GarmentSpec] = {
+    spec.name: spec
+    for spec in (
+        GarmentSpec("No.1-small", "tshirt", "plaid", (200.0, 167.0), 101,
+                    description="No.1 cut smaller (0.83x): differs only in size"),
+        GarmentSpec("No.3-red", "tshirt", "print", (130.0, 110.0), 103, _RED_BGR,
+                    description="No.3 on a red ground: differs only in colour"),
+        GarmentSpec("No.4-dots", "longsleeve", "dots", (250.0, 190.0), 104, _OFF_WHITE_BGR,
+                    description="No.4 with coloured dots instead of stripes: differs only in "
+                                "print"),
+    )
+}
+"""Look-alikes of catalogue garments for identification (issue 6): each differs from its
+original in one respect only (size, colour or print). Not part of the paper's 12."""
+
+GARMENT_GROUPS: dict[str, tuple[str, ...]] = {
+    "all": tuple(CATALOGUE),
+    "similar": ("No.1", "No.1-small", "No.3", "No.3-red", "No.4", "No.4-dots"),
+}
+"""Named sets of garments for ``--garments``: ``all`` is the paper's 12, ``similar`` the
+look-alike pairs (each original with its twin)."""
+
+_SPECS: dict[str, GarmentSpec] = {**CATALOGUE, **SIMILAR}
+
 
 def garment_names() -> tuple[str, ...]:
     """Names of the catalogue garments, ``("No.1", ..., "No.12")``."""
     return tuple(CATALOGUE)
 
 
+def known_garments() -> tuple[str, ...]:
+    """Every garment :func:`catalogue_garment` builds: the paper's 12 and the look-alikes."""
+    return tuple(_SPECS)
+
+
+def expand_garments(text: str) -> tuple[str, ...]:
+    """Garment names of a ``--garments`` value: a group name of :data:`GARMENT_GROUPS` or
+    comma-separated names and group names, in order, without repeats.
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists the known ones and the groups).
+    """
+    names: list[str] = []
+    for part in (t.strip() for t in text.split(",")):
+        if not part:
+            continue
+        if part in GARMENT_GROUPS:
+            names += GARMENT_GROUPS[part]
+        elif part in _SPECS:
+            names.append(part)
+        else:
+            raise ValueError(f"unknown garment {part!r}; known: {', '.join(_SPECS)}; groups: "
+                             f"{', '.join(GARMENT_GROUPS)}")
+    return tuple(dict.fromkeys(names))
+
+
 @lru_cache(maxsize=64)
 def _build(name: str, mm_per_px: float) -> Garment:
-    spec = CATALOGUE[name]
+    spec = _SPECS[name]
     garment = make_garment(spec.shape, spec.fabric, spec.size_mm, rng=spec.seed,
                            mm_per_px=mm_per_px, colour_bgr=spec.colour_bgr, name=spec.name,
                            photo=spec.photo, description=spec.description)
@@ -135,7 +191,8 @@ def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
     Parameters
     ----------
     name : str
-        ``"No.1"`` ... ``"No.12"`` (see :func:`garment_names`).
+        ``"No.1"`` ... ``"No.12"`` (see :func:`garment_names`) or a look-alike of
+        :data:`SIMILAR`.
     mm_per_px : float
         Texture pixel size, mm.
 
@@ -149,8 +206,8 @@ def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
     ValueError
         Unknown name (the message lists the known ones) or a non-positive ``mm_per_px``.
     """
-    if name not in CATALOGUE:
-        raise ValueError(f"name: no catalogue garment {name!r}; known: {', '.join(CATALOGUE)}")
+    if name not in _SPECS:
+        raise ValueError(f"name: no catalogue garment {name!r}; known: {', '.join(_SPECS)}")
     if not (math.isfinite(mm_per_px) and mm_per_px > 0):
         raise ValueError(f"mm_per_px: must be positive, got {mm_per_px}")
     return _build(name, float(mm_per_px))

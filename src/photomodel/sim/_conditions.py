@@ -139,6 +139,7 @@ CONDITIONS: dict[str, dict[str, object]] = {
     "gripper": {"occlusion": "gripper"},
     "overlap": {"occlusion": "garment"},
     "no-target": {"target": False, "distractor_garments": 2, "distractor_objects": 1},
+    "empty": {"target": False},
 }
 """Named presets: field overrides of :class:`Conditions` (``"paper"`` is the default set-up)."""
 

@@ -1,0 +1,71 @@
+"""``photomodel identify``: which model of a library is on the table, and its pose, or none."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from photomodel.errors import InputError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "identify", help="name the library model on the table and find its pose (or none)",
+        description="Search every photo-model of a library directory in the images of the "
+                    "hand's two cameras (camera 1 = right = reference); print the best model "
+                    "with its pose T_cam1_model, or none when its score stays below the "
+                    "calibrated threshold.")
+    p.add_argument("--models", required=True, type=Path, help="model library directory")
+    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration (K1, D1, ...)")
+    p.add_argument("--right", required=True, type=Path, help="camera 1 (right) image")
+    p.add_argument("--left", required=True, type=Path, help="camera 2 (left) image")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--seed", type=int, default=0, help="seed of the searches (default 0)")
+    p.add_argument("--min-score", type=float, default=None,
+                   help="accept the best model from this score (default: the calibrated, "
+                        "stored threshold)")
+    p.add_argument("--max-candidates", type=int, default=3,
+                   help="models searched after the colour screen (default 3)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from photomodel.camera import load_stereo
+    from photomodel.cli._models import warn_skipped
+    from photomodel.identify import IdentifyConfig, identify
+    from photomodel.image import read_color_image
+    from photomodel.library import ModelLibrary
+
+    try:
+        config = IdentifyConfig(min_score=args.min_score, max_candidates=args.max_candidates)
+    except ValueError as exc:
+        raise InputError("--min-score/--max-candidates", str(exc)) from None
+    models, skipped = ModelLibrary(args.models).load()
+    warn_skipped(skipped)
+    if not models:
+        raise InputError(args.models, "the library holds no usable photo-model")
+    rig = load_stereo(args.stereo)
+    right = read_color_image(args.right)
+    left = read_color_image(args.left)
+    rig.cam1.check_image(right, str(args.right))
+    rig.cam2.check_image(left, str(args.left))
+    result = identify(models, rig, right, left, config=config, rng=args.seed)
+    if args.json:
+        print(json.dumps(result.to_json_dict()))
+        return 0
+    runner = result.runner_up
+    runner_text = ("none" if runner is None else f"{runner.model} (score {runner.score:.3f})")
+    if result.found and result.best is not None:
+        from photomodel.cli._locate import format_result
+
+        print(format_result(result.best))
+    else:
+        best = "no model searched" if result.best is None else (
+            f"best {result.best.model} at score {result.best.score:.3f}")
+        print(f"model       none of the {len(models)} models is on the table ({best}, "
+              f"threshold {result.min_score:.3f})")
+    print(f"runner-up   {runner_text}")
+    print(f"identify    {sum(c.result is not None for c in result.candidates)} of "
+          f"{len(models)} models searched, {result.seconds:.2f} s")
+    return 0

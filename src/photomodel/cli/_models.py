@@ -1,0 +1,113 @@
+"""``photomodel models list|add|remove|show``: manage a model library directory."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from photomodel.library import LibraryEntry, ModelLibrary, Skipped
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("models", help="manage a model library (a directory of photo-models)",
+                       description="List, add, remove and show the photo-models of a library "
+                                   "directory (DIR/<name>.npz with DIR/index.json). Files that "
+                                   "are not readable photo-models are skipped with a warning.")
+    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
+    ls = actions.add_parser("list", help="the library's models: name, size, colours, dates")
+    ls.add_argument("--models", required=True, type=Path, help="library directory")
+    ls.add_argument("--json", action="store_true", help="print one JSON object")
+    ls.set_defaults(run=run_list)
+    add = actions.add_parser("add", help="copy a model file into the library")
+    add.add_argument("--models", required=True, type=Path,
+                     help="library directory (created if missing)")
+    add.add_argument("model", type=Path, nargs="+", help="photo-model file(s) (.npz)")
+    add.add_argument("--name", default=None, help="name in the library (one model only)")
+    add.add_argument("--replace", action="store_true", help="replace a model of the same name")
+    add.set_defaults(run=run_add)
+    rm = actions.add_parser("remove", help="delete a model from the library")
+    rm.add_argument("--models", required=True, type=Path, help="library directory")
+    rm.add_argument("name", nargs="+", help="model name(s)")
+    rm.set_defaults(run=run_remove)
+    show = actions.add_parser("show", help="one model's index entry")
+    show.add_argument("--models", required=True, type=Path, help="library directory")
+    show.add_argument("name", help="model name")
+    show.add_argument("--json", action="store_true", help="print one JSON object")
+    show.set_defaults(run=run_show)
+
+
+def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped]) -> None:
+    """One warning line on stderr per skipped file."""
+    for s in skipped:
+        print(f"photomodel: warning: {s}", file=sys.stderr)
+
+
+def _colours(entry: LibraryEntry) -> str:
+    return " ".join(f"{hex_}({100 * share:.0f}%)" for hex_, share in entry.colours)
+
+
+def _entry_json(entry: LibraryEntry) -> dict[str, Any]:
+    return {"name": entry.name, **entry.to_json_dict()}
+
+
+def run_list(args: argparse.Namespace) -> int:
+    scan = ModelLibrary(args.models).scan()
+    warn_skipped(scan.skipped)
+    if args.json:
+        print(json.dumps({"library": str(args.models),
+                          "models": [_entry_json(e) for e in scan.entries],
+                          "skipped": [{"file": str(s.path), "reason": s.reason}
+                                      for s in scan.skipped]}))
+        return 0
+    if not scan.entries:
+        print(f"{args.models}: no models")
+        return 0
+    width = max(len(e.name) for e in scan.entries)
+    for e in scan.entries:
+        print(f"{e.name:<{width}}  {e.size_mm[0]:6.1f} x {e.size_mm[1]:6.1f} mm  "
+              f"{_colours(e):<36}  added {e.added_utc}")
+    print(f"{len(scan.entries)} model(s)")
+    return 0
+
+
+def run_add(args: argparse.Namespace) -> int:
+    from photomodel.errors import InputError
+
+    if args.name is not None and len(args.model) > 1:
+        raise InputError("--name", "give one model file with --name")
+    library = ModelLibrary(args.models, create=True)
+    for path in args.model:
+        entry = library.add(path, args.name, replace=args.replace)
+        print(f"added {entry.name} ({entry.size_mm[0]:.1f} x {entry.size_mm[1]:.1f} mm) to "
+              f"{args.models}/{entry.file}")
+    return 0
+
+
+def run_remove(args: argparse.Namespace) -> int:
+    library = ModelLibrary(args.models)
+    for name in args.name:
+        entry = library.remove(name)
+        print(f"removed {entry.name} ({entry.file}) from {args.models}")
+    return 0
+
+
+def run_show(args: argparse.Namespace) -> int:
+    library = ModelLibrary(args.models)
+    entry = library.entry(args.name)
+    if args.json:
+        print(json.dumps(_entry_json(entry)))
+        return 0
+    print("\n".join([
+        f"name        {entry.name}",
+        f"file        {args.models / entry.file} ({entry.file_bytes} bytes)",
+        f"size        {entry.size_mm[0]:.1f} x {entry.size_mm[1]:.1f} mm, "
+        f"area {entry.area_mm2:.0f} mm^2",
+        f"colours     {_colours(entry)}",
+        f"points      {entry.n_in} inside, {entry.n_out} in the band",
+        f"built       {entry.created_utc or 'unknown'}",
+        f"added       {entry.added_utc}",
+    ]))
+    return 0
