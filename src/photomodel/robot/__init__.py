@@ -1,0 +1,95 @@
+"""Robot side of the cell (issue 7): the PA10-7C's kinematics, hand-eye, pick-and-place plans.
+
+Frames (DESIGN.md): ``base`` (the arm's, z up), ``hand`` (tool flange), ``tcp`` (gripper),
+``cam1``, ``model``; ``T_a_b`` maps b to a; mm and radians inside, ``_deg`` at the edge.
+``T_base_model = T_base_hand(q) @ T_hand_cam1 @ T_cam1_model``.
+"""
+
+from photomodel.robot._arm import ARM_FILES, ArmModel, available_link_sets, load_arm
+from photomodel.robot._cell import (
+    CellConfig,
+    CellReport,
+    CellSetup,
+    CycleOutcome,
+    default_hand_eye,
+    make_cell,
+    photo_configuration,
+    run_cell,
+    run_cycle,
+    simulated_hand_eye,
+)
+from photomodel.robot._handeye import (
+    HAND_EYE_METHODS,
+    Chessboard,
+    HandEyePairs,
+    HandEyeResult,
+    base_from_camera,
+    calibrate_hand_eye,
+    chessboard_pose,
+    hand_eye_error,
+    load_hand_eye,
+    load_hand_eye_pairs,
+    save_hand_eye,
+)
+from photomodel.robot._kinematics import (
+    IKResult,
+    IKSettings,
+    forward_kinematics,
+    inverse_kinematics,
+    jacobian,
+    joint_frames,
+    pose_error,
+)
+from photomodel.robot._plan import (
+    CellLayout,
+    Gripper,
+    PickPlan,
+    PickSettings,
+    UnreachableError,
+    Waypoint,
+    grasp_pose,
+    plan_pick,
+)
+
+__all__ = [
+    "ARM_FILES",
+    "HAND_EYE_METHODS",
+    "ArmModel",
+    "CellConfig",
+    "CellLayout",
+    "CellReport",
+    "CellSetup",
+    "Chessboard",
+    "CycleOutcome",
+    "Gripper",
+    "HandEyePairs",
+    "HandEyeResult",
+    "IKResult",
+    "IKSettings",
+    "PickPlan",
+    "PickSettings",
+    "UnreachableError",
+    "Waypoint",
+    "available_link_sets",
+    "base_from_camera",
+    "calibrate_hand_eye",
+    "chessboard_pose",
+    "default_hand_eye",
+    "forward_kinematics",
+    "grasp_pose",
+    "hand_eye_error",
+    "inverse_kinematics",
+    "jacobian",
+    "joint_frames",
+    "load_arm",
+    "load_hand_eye",
+    "load_hand_eye_pairs",
+    "make_cell",
+    "photo_configuration",
+    "plan_pick",
+    "pose_error",
+    "run_cell",
+    "run_cycle",
+    "save_hand_eye",
+    "simulated_hand_eye",
+]
