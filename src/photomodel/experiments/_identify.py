@@ -7,7 +7,9 @@ the one ``photomodel simulate --seed`` writes, the models are built from the sam
 and the searches are seeded from the trial id. Every trial appends one row to
 ``identify.csv`` as it finishes (a rerun resumes); the decision is *not* recorded but applied
 when summarising (best score >= ``min_score``), so the stored threshold can be calibrated on,
-and applied to, the same records.
+and applied to, the same records. (The threshold of the run does steer one thing: while no
+candidate reaches it, ``identify`` searches again. A threshold applied later that is lower
+than the run's gives the decisions that a run at it would have given.)
 
 Summary (``identify_summary.json``, ``identify_report.md``, ``confusion.png``): the confusion
 matrix (rows: truth, columns: answer, each with a ``none``), top-1 identification on scenes
@@ -169,8 +171,14 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
     shot = simulate_scene(target, rig, parse_conditions(trial.condition),
                           scene_rng(config.seed, trial.condition, trial.garment or "",
                                     trial.index))
+    min_score = config.min_score
+    if min_score is None:
+        from photomodel.identify import load_threshold
+
+        min_score = load_threshold().min_score
     result = identify(models, rig, shot.right_bgr, shot.left_bgr,
-                      config=IdentifyConfig(min_score=0.0, max_candidates=config.max_candidates),
+                      config=IdentifyConfig(min_score=min_score,
+                                            max_candidates=config.max_candidates),
                       rng=scene_rng(config.seed, "identify", trial.trial_id))
     nan = float("nan")
     row: dict[str, Any] = {

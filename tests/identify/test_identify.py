@@ -1,0 +1,77 @@
+"""identify: the right model and its pose, none on an empty table, the JSON contract."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from identify_helpers import IdentifyData
+
+from photomodel.fitness import StereoFeatures
+from photomodel.identify import IdentifyConfig, colour_evidence, identify, identify_in_features
+from photomodel.locate import locate_in_features
+
+LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
+               "fitness", "score", "seconds"}
+
+
+def test_colour_evidence_ranks_the_garment_on_the_table(identify_data: IdentifyData) -> None:
+    d = identify_data
+    ev = colour_evidence(list(d.models), StereoFeatures(d.rig, d.scene_right, d.scene_left))
+    assert ev.shape == (3,) and np.all((ev >= 0) & (ev <= 1))
+    names = [m.name for m in d.models]
+    assert names[int(np.argmax(ev))] == "No.5"
+    empty = colour_evidence(list(d.models), StereoFeatures(d.rig, d.empty_right, d.empty_left))
+    assert np.all(empty < ev[names.index("No.5")])
+
+
+def test_identify_names_the_garment_with_locates_pose(identify_data: IdentifyData) -> None:
+    d = identify_data
+    result = identify(d.models, d.rig, d.scene_right, d.scene_left,
+                      config=IdentifyConfig(max_candidates=2), rng=3)
+    assert result.found and result.model == "No.5"
+    assert result.best is not None
+    assert np.linalg.norm(result.best.position_mm - d.T_cam1_model[:3, 3]) < 10.0
+    assert result.runner_up is not None and result.runner_up.model != "No.5"
+    assert result.runner_up.score is not None and result.runner_up.score < result.score
+    searched = [c for c in result.candidates if c.result is not None]
+    assert len(searched) == 2  # the third model was dropped by the colour screen
+    doc = result.to_json_dict()
+    assert LOCATE_KEYS <= set(doc) and doc["model"] == "No.5" and doc["found"] is True
+    assert set(doc["runner_up"]) == {"model", "score"} and 0 <= doc["score"] <= 1
+
+
+def test_identify_says_none_on_an_empty_table(identify_data: IdentifyData) -> None:
+    d = identify_data
+    result = identify(d.models, d.rig, d.empty_right, d.empty_left,
+                      config=IdentifyConfig(max_candidates=1, retries=0), rng=0)
+    assert not result.found and result.model is None
+    doc = result.to_json_dict()
+    assert doc["model"] is None and doc["found"] is False and doc["T_cam1_model"] is None
+    assert LOCATE_KEYS <= set(doc) and doc["runner_up"] == {"model": None, "score": None}
+    assert doc["score"] < doc["min_score"]
+
+
+def test_a_model_searched_alone_matches_locate_in_features(identify_data: IdentifyData
+                                                           ) -> None:
+    """With one candidate and no screen, identify's pose is the plain locate's."""
+    d = identify_data
+    features = StereoFeatures(d.rig, d.scene_right, d.scene_left)
+    model = d.models[1]
+    res = identify_in_features([model], features,
+                               config=IdentifyConfig(min_evidence=0.0, retries=0), rng=7)
+    assert res.best is not None
+    from photomodel.identify._identify import _model_rng
+
+    base = int(np.random.default_rng(7).integers(0, 2**62))
+    plain = locate_in_features(model, features, rng=_model_rng(base, model.name, 0))
+    np.testing.assert_allclose(res.best.T_cam1_model, plain.T_cam1_model)
+    assert res.score == pytest.approx(plain.score)
+
+
+def test_config_validation() -> None:
+    with pytest.raises(ValueError, match="max_candidates"):
+        IdentifyConfig(max_candidates=0)
+    with pytest.raises(ValueError, match="min_score"):
+        IdentifyConfig(min_score=2.0)
+    with pytest.raises(ValueError, match="retries"):
+        IdentifyConfig(retries=-1)

@@ -1,0 +1,52 @@
+"""The decision threshold: calibration rule and the stored, calibrated file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from photomodel.errors import InputError
+from photomodel.identify import Threshold, calibrate_threshold, load_threshold, save_threshold
+
+
+def test_separable_scores_give_the_middle_of_the_gap() -> None:
+    t, stats = calibrate_threshold([0.6, 0.7, 0.9], [0.1, 0.2, 0.3])
+    assert t == pytest.approx(0.45)
+    assert stats["false_accept_rate"] == 0 and stats["false_reject_rate"] == 0
+
+
+def test_false_acceptance_cap_wins_over_rejections() -> None:
+    rng = np.random.default_rng(0)
+    pos = np.concatenate([rng.uniform(0.5, 0.9, 95), [0.05] * 5])  # five missed garments
+    neg = np.concatenate([rng.uniform(0.0, 0.3, 199), [0.55]])  # one high negative
+    t, stats = calibrate_threshold(pos, neg, max_false_accept=0.0)
+    assert t > 0.55 and stats["false_accept_rate"] == 0
+    t, stats = calibrate_threshold(pos, neg, max_false_accept=0.01)
+    assert 0.3 < t <= 0.5 and stats["false_accept_rate"] <= 0.01
+    assert stats["false_reject_rate"] == pytest.approx(0.05)
+
+
+def test_bad_calibration_input() -> None:
+    with pytest.raises(ValueError, match="needs positive and negative"):
+        calibrate_threshold([], [0.1])
+
+
+def test_stored_threshold_is_calibrated() -> None:
+    th = load_threshold()
+    assert 0.0 < th.min_score < 1.0
+    meta = th.metadata
+    assert meta["command"].startswith("photomodel experiment --identify --calibrate")
+    assert meta["positives"] > 0 and meta["negatives"] > 0 and meta["commit"]
+    assert meta["negative_scores"]["max"] < th.min_score
+
+
+def test_round_trip_and_bad_file(tmp_path: Path) -> None:
+    p = save_threshold(Threshold(0.42, {"source": "test"}), tmp_path / "t.json")
+    assert load_threshold(p) == Threshold(0.42, {"source": "test"})
+    (tmp_path / "bad.json").write_text("[]")
+    with pytest.raises(InputError, match="not a threshold file"):
+        load_threshold(tmp_path / "bad.json")
+    with pytest.raises(ValueError, match="min_score"):
+        Threshold(1.5)
