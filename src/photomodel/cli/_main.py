@@ -12,7 +12,18 @@ import sys
 from collections.abc import Sequence
 
 from photomodel import __version__
-from photomodel.cli import _build, _demo, _experiment, _identify, _locate, _models, _simulate
+from photomodel.cli import (
+    _build,
+    _cell,
+    _demo,
+    _experiment,
+    _handeye,
+    _identify,
+    _locate,
+    _models,
+    _pick,
+    _simulate,
+)
 from photomodel.errors import PhotomodelError
 
 EXIT_INPUT_ERROR = 2
@@ -34,6 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
     _simulate.add_parser(sub)
     _experiment.add_parser(sub)
     _demo.add_parser(sub)
+    _handeye.add_parser(sub)
+    _pick.add_parser(sub)
+    _cell.add_parser(sub)
     return parser
 
 

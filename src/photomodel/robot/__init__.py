@@ -5,6 +5,7 @@ Frames (DESIGN.md): ``base`` (the arm's, z up), ``hand`` (tool flange), ``tcp`` 
 ``T_base_model = T_base_hand(q) @ T_hand_cam1 @ T_cam1_model``.
 """
 
+from photomodel.robot._animate import ANIMATION_SUFFIXES, animate_plan, check_animation_path
 from photomodel.robot._arm import ARM_FILES, ArmModel, available_link_sets, load_arm
 from photomodel.robot._cell import (
     CellConfig,
@@ -40,6 +41,14 @@ from photomodel.robot._kinematics import (
     joint_frames,
     pose_error,
 )
+from photomodel.robot._pick import (
+    PickResult,
+    grasp_point_from_photo_px,
+    hand_pose_from_xyz_rpy,
+    joints_for_hand_pose,
+    pick,
+    write_json_atomic,
+)
 from photomodel.robot._plan import (
     CellLayout,
     Gripper,
@@ -52,6 +61,7 @@ from photomodel.robot._plan import (
 )
 
 __all__ = [
+    "ANIMATION_SUFFIXES",
     "ARM_FILES",
     "HAND_EYE_METHODS",
     "ArmModel",
@@ -67,29 +77,37 @@ __all__ = [
     "IKResult",
     "IKSettings",
     "PickPlan",
+    "PickResult",
     "PickSettings",
     "UnreachableError",
     "Waypoint",
+    "animate_plan",
     "available_link_sets",
     "base_from_camera",
     "calibrate_hand_eye",
+    "check_animation_path",
     "chessboard_pose",
     "default_hand_eye",
     "forward_kinematics",
+    "grasp_point_from_photo_px",
     "grasp_pose",
     "hand_eye_error",
+    "hand_pose_from_xyz_rpy",
     "inverse_kinematics",
     "jacobian",
     "joint_frames",
+    "joints_for_hand_pose",
     "load_arm",
     "load_hand_eye",
     "load_hand_eye_pairs",
     "make_cell",
     "photo_configuration",
+    "pick",
     "plan_pick",
     "pose_error",
     "run_cell",
     "run_cycle",
     "save_hand_eye",
     "simulated_hand_eye",
+    "write_json_atomic",
 ]

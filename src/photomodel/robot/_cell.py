@@ -40,6 +40,7 @@ from photomodel.model import PhotoModel, build_photo_model
 from photomodel.robot._arm import ArmModel, load_arm
 from photomodel.robot._handeye import calibrate_hand_eye, hand_eye_error
 from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
+from photomodel.robot._pick import PHOTO_SEED_DEG
 from photomodel.robot._plan import CellLayout, PickPlan, PickSettings, UnreachableError, plan_pick
 
 __all__ = [
@@ -55,8 +56,6 @@ __all__ = [
     "simulated_hand_eye",
 ]
 
-PHOTO_SEED_DEG = (0.0, 25.0, 0.0, 100.0, 0.0, 55.0, 0.0)
-"""Start of the IK for the photographing pose: elbow up, hand pointing down."""
 
 
 def default_hand_eye(rig: StereoRig) -> NDArray[np.float64]:
@@ -307,11 +306,12 @@ def _stats(values: list[float]) -> dict[str, float | None]:
 
 @dataclass(frozen=True)
 class CellReport:
-    """Cycles and their summary (JSON-ready)."""
+    """Cycles and their summary (JSON-ready), the set-up, and the first cycle with a plan."""
 
     cycles: list[dict[str, Any]]
     summary: dict[str, Any]
-    first: CycleOutcome | None = None
+    setup: CellSetup
+    first_plan: CycleOutcome | None = None
 
     def to_json_dict(self) -> dict[str, Any]:
         return {"summary": self.summary, "cycles": self.cycles}
@@ -361,9 +361,11 @@ def run_cell(config: CellConfig,
     first: CycleOutcome | None = None
     for k in range(config.orders):
         outcome = run_cycle(config, setup, k)
-        first = first or outcome
+        if first is None and outcome.plan is not None:
+            first = outcome
         cycles.append(outcome.record)
         if progress is not None:
             r = outcome.record
             progress(k + 1, config.orders, f"{r['garment']}: {r['grasp_error_norm_mm']:.1f} mm")
-    return CellReport(cycles, summarise(config, setup, cycles, time.perf_counter() - t0), first)
+    return CellReport(cycles, summarise(config, setup, cycles, time.perf_counter() - t0), setup,
+                      first)

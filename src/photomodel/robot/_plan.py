@@ -174,6 +174,8 @@ class PickPlan:
         consecutive rows).
     within_limits : bool
         Every row of ``path_q`` lies within the joint limits (always True for a returned plan).
+    waypoint_rows : tuple of int
+        Row of ``path_q`` of each waypoint.
     """
 
     T_base_model: NDArray[np.float64]
@@ -182,6 +184,7 @@ class PickPlan:
     waypoints: tuple[Waypoint, ...]
     path_q: NDArray[np.float64]
     within_limits: bool
+    waypoint_rows: tuple[int, ...] = ()
 
     def waypoint(self, name: str) -> Waypoint:
         for w in self.waypoints:
@@ -284,6 +287,7 @@ def plan_pick(
             ("pre_place", T_pre_place, False), ("place", T_place, True),
             ("retreat", T_pre_place, True)]
     waypoints = [Waypoint("start", T_start_tcp, q0)]
+    rows = [0]
     path = [q0]
     q, T_prev = q0, T_start_tcp
     for name, T_target, straight in legs:
@@ -303,8 +307,9 @@ def plan_pick(
             q = result.q
             path.append(q)
         waypoints.append(Waypoint(name, T_target, q))
+        rows.append(len(path) - 1)
         T_prev = T_target
     path_q = np.stack(path)
     yaw = float(np.degrees(np.arctan2(T_grasp[1, 0], T_grasp[0, 0])))
     return PickPlan(T_model, T_grasp[:3, 3].copy(), yaw, tuple(waypoints), path_q,
-                    all(arm.within_limits(p) for p in path_q))
+                    all(arm.within_limits(p) for p in path_q), tuple(rows))

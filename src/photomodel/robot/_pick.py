@@ -1,0 +1,138 @@
+"""From a stereo pair and the arm's joints to a pick-and-place plan (what ``photomodel pick`` runs).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from photomodel.camera import PinholeCamera, StereoRig
+from photomodel.errors import InputError, PhotomodelError
+from photomodel.geometry import make_transform
+from photomodel.locate import LocateResult, locate
+from photomodel.model import PhotoModel
+from photomodel.robot._arm import ArmModel
+from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
+from photomodel.robot._plan import (
+    CellLayout,
+    PickPlan,
+    PickSettings,
+    UnreachableError,
+    plan_pick,
+)
+
+__all__ = [
+    "PickResult",
+    "grasp_point_from_photo_px",
+    "hand_pose_from_xyz_rpy",
+    "joints_for_hand_pose",
+    "pick",
+    "write_json_atomic",
+]
+
+PHOTO_SEED_DEG = (0.0, 25.0, 0.0, 100.0, 0.0, 55.0, 0.0)
+"""Start of the IK for a photographing pose: elbow up, hand pointing down."""
+
+
+def hand_pose_from_xyz_rpy(xyz_mm: ArrayLike, rpy_deg: ArrayLike) -> NDArray[np.float64]:
+    """``T_base_hand`` (4, 4) from a position (mm) and roll, pitch, yaw (deg, extrinsic x-y-z)."""
+    R = Rotation.from_euler("xyz", np.asarray(rpy_deg, dtype=np.float64), degrees=True)
+    return make_transform(R.as_matrix(), np.asarray(xyz_mm, dtype=np.float64))
+
+
+def joints_for_hand_pose(arm: ArmModel, T_base_hand: ArrayLike,
+                         source: str = "--hand-pose-mm") -> NDArray[np.float64]:
+    """Joints (n,) rad that reach ``T_base_hand`` (4, 4); :class:`UnreachableError` if none."""
+    result = inverse_kinematics(arm, T_base_hand, np.radians(PHOTO_SEED_DEG), rng=0)
+    if not result.success:
+        raise UnreachableError(f"{source}: the hand pose is out of reach of the {arm.name}: "
+                               f"{result.reason}")
+    return result.q
+
+
+def grasp_point_from_photo_px(model: PhotoModel, uv: ArrayLike) -> tuple[float, float]:
+    """The model-frame point (x, y) mm of a pixel (u, v) of the model photo.
+
+    Uses the model camera and distance stored in the model's metadata (as the build did: the
+    pixel's ray met with the plane, minus the silhouette's centroid). The pixel must lie on the
+    garment (inside the model's mask).
+    """
+    meta = model.meta
+    try:
+        camera = PinholeCamera(np.asarray(meta["camera_K"]), np.asarray(meta["camera_dist"]))
+        distance = float(meta["distance_mm"])
+        centroid = np.asarray(meta["centroid_in_camera_mm"][:2], dtype=np.float64)
+    except (KeyError, TypeError, ValueError):
+        raise InputError("--grasp-px", f"model {model.name!r} lacks its camera metadata; give "
+                         "the grasp point in mm (--grasp-mm)") from None
+    uv_arr = np.asarray(uv, dtype=np.float64).reshape(1, 2)
+    u, v = (uv_arr[0] - model.crop_origin_px).round().astype(int)
+    h, w = model.mask.shape
+    if not (0 <= u < w and 0 <= v < h and model.mask[v, u]):
+        raise InputError("--grasp-px", f"pixel ({uv_arr[0, 0]:.0f}, {uv_arr[0, 1]:.0f}) is not "
+                         f"on the garment of model {model.name!r}")
+    xy = camera.undistort_pixels(uv_arr)[0] * distance - centroid
+    return float(xy[0]), float(xy[1])
+
+
+@dataclass(frozen=True)
+class PickResult:
+    """A located garment and its plan."""
+
+    located: LocateResult
+    T_base_hand: NDArray[np.float64]
+    T_hand_cam1: NDArray[np.float64]
+    plan: PickPlan
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return {"model": self.located.model, "locate": self.located.to_json_dict(),
+                "T_base_hand": self.T_base_hand.tolist(),
+                "T_hand_cam1": self.T_hand_cam1.tolist(),
+                "T_base_model": self.plan.T_base_model.tolist(), **self.plan.to_json_dict()}
+
+
+def pick(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+         left_bgr: NDArray[np.uint8], arm: ArmModel, q: ArrayLike,
+         T_hand_cam1: NDArray[np.float64], *, layout: CellLayout | None = None,
+         settings: PickSettings | None = None, rng: int = 0,
+         fitness: str = "soft") -> PickResult:
+    """Locate ``model`` in the stereo pair taken at joints ``q`` (n,) rad and plan its pick.
+
+    Raises
+    ------
+    PhotomodelError
+        The garment is not found in the images.
+    UnreachableError
+        The plan cannot be executed within the joint limits.
+    """
+    q_arr = arm.check_joints(q, "--joints-deg")
+    located = locate(model, rig, right_bgr, left_bgr, fitness=fitness, rng=rng)
+    if not located.found:
+        raise PhotomodelError(f"{model.name}: not found in the stereo pair (score "
+                              f"{located.score:.2f}); nothing to pick")
+    T_base_hand = forward_kinematics(arm, q_arr)
+    T_base_model = T_base_hand @ T_hand_cam1 @ located.T_cam1_model
+    plan = plan_pick(arm, q_arr, T_base_model, layout, settings, rng=rng)
+    return PickResult(located, T_base_hand, np.asarray(T_hand_cam1, dtype=float), plan)
+
+
+def write_json_atomic(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
+    """Write ``data`` as indented JSON through a temporary file and ``os.replace``."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(p, "is a directory; give a file name")
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(f".{p.name}.tmp")
+    try:
+        tmp.write_text(json.dumps(data, indent=1) + "\n")
+        os.replace(tmp, p)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return p
