@@ -63,7 +63,7 @@ def animate_plan(
     outline_model_mm: NDArray[np.float64] | None = None,
     fps: int = 12,
     frames_per_move: int = 12,
-    dpi: int = 64,
+    dpi: int = 90,
     title: str = "",
 ) -> Path:
     """Render the plan's motion to ``out`` (.gif or .mp4), atomically.
@@ -109,7 +109,7 @@ def animate_plan(
         outline_model_mm = np.zeros((0, 3))
     outline = outline_model_mm[:: max(1, len(outline_model_mm) // 120)]
 
-    fig = plt.figure(figsize=(5.0, 4.2))
+    fig = plt.figure(figsize=(5.6, 4.6))
     ax = fig.add_subplot(projection="3d")
     tx, ty, tz = layout.table_centre_mm
     hx, hy = layout.table_size_mm[0] / 2, layout.table_size_mm[1] / 2
