@@ -274,7 +274,7 @@ def inverse_kinematics(
              else _check_q(arm, q0).reshape(arm.n_joints))
     shoulder = np.array([0.0, 0.0, arm.d_mm[0]])
     distance = float(np.linalg.norm(T[:3, 3] - shoulder))
-    if distance > arm.reach_mm:
+    if distance > arm.reach_mm + cfg.tol_mm:
         return IKResult(start, False, distance - arm.reach_mm, float("nan"), 0, 0,
                         f"the hand would be {distance:.0f} mm from the shoulder, beyond the "
                         f"arm's reach of {arm.reach_mm:.0f} mm")
