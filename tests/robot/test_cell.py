@@ -36,7 +36,6 @@ def test_photographing_pose_sees_the_table(config: CellConfig) -> None:
     assert setup.hand_eye_info["pairs"] == 12
 
 
-@pytest.mark.slow
 def test_one_order_end_to_end(config: CellConfig) -> None:
     setup = make_cell(config)
     outcome = run_cycle(config, setup, 0)
