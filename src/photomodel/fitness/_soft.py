@@ -8,11 +8,16 @@ averaged. What changes, and why:
 * **Colour**: the log-opponent features of :mod:`photomodel.image._features` instead of the
   hue alone, so grey, white and black fabric are matched by lightness where hue has nothing
   to say.
-* **Light**: for each candidate pose and camera, the mean difference ``o = (o_l, o_a, o_b)``
-  between the image and the model over the projected inner points is taken out before
-  comparing (an exposure change shifts ``l``, a lamp of another colour shifts ``a`` and
-  ``b``). Chromatic shifts are not free: ``wb_weight * (o_a^2 + o_b^2)`` is subtracted, so a
-  red model does not fit a green garment by calling it a green lamp.
+* **Light**: for each candidate pose and camera, an offset ``o = (o_l, o_a, o_b)`` between
+  the image and the model is taken out before comparing (an exposure change shifts ``l``, a
+  lamp of another colour shifts ``a`` and ``b``). Chromatic shifts are not free:
+  ``wb_weight * (o_a^2 + o_b^2)`` is subtracted, so a red model does not fit a green garment
+  by calling it a green lamp. The offset is the one that maximises the inner points' mean
+  agreement minus that penalty (three mean-shift steps from the mean difference and from
+  zero, the better end kept), not the mean difference itself: a gripper or another garment
+  over part of the model disagrees and would drag a mean, and with it every other point.
+  Measured on one scene per garment: gripper 7/12 -> 9/12, overlap and blur about 3x more
+  successes, warm light 100 %.
 * **Graded votes**: a point's agreement is ``exp(-d^2 / 2)`` with
   ``d^2 = dl^2 / sigma_l^2 + (da^2 + db^2) / sigma_c^2`` after the offsets, in [0, 1].
 * **Balanced terms**: ``F_c = mean_in agreement - mean_out agreement - penalty``; both means

@@ -7,6 +7,9 @@ from numba import njit, prange
 
 from photomodel.fitness._kernels import _project, camera2_pose
 
+_OFFSET_ITERATIONS = 3
+"""Mean-shift steps of the light offsets from each start."""
+
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _bilinear(img, u, v, out):  # pragma: no cover - compiled
@@ -73,6 +76,44 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
         return
     for c in range(3):
         o[c] /= n_valid
+    # The offsets maximise mean agreement - chroma penalty (a mode, not the mean): occluders
+    # and shadows disagree with the model and must not drag them. Fixed-point (mean-shift)
+    # ascent from the mean and from no offset; the better end point is kept.
+    ridge = 2.0 * wb_weight * n_in / inv_var_c
+    best_j = -1e300
+    best_o = np.zeros(3)
+    trial = np.empty(3)
+    for start in range(2):
+        for c in range(3):
+            trial[c] = o[c] if start == 0 else 0.0
+        for _ in range(_OFFSET_ITERATIONS):
+            sw = 0.0
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            for j in range(n_in):
+                if valid[j]:
+                    a = _agreement(buf[j], f_in[j], trial, inv_var_l, inv_var_c)
+                    sw += a
+                    s0 += a * (buf[j, 0] - f_in[j, 0])
+                    s1 += a * (buf[j, 1] - f_in[j, 1])
+                    s2 += a * (buf[j, 2] - f_in[j, 2])
+            if sw < 1e-9:
+                break
+            trial[0] = s0 / sw
+            trial[1] = s1 / (sw + ridge)
+            trial[2] = s2 / (sw + ridge)
+        j_val = 0.0
+        for j in range(n_in):
+            if valid[j]:
+                j_val += _agreement(buf[j], f_in[j], trial, inv_var_l, inv_var_c)
+        j_val = j_val / n_in - wb_weight * (trial[1] * trial[1] + trial[2] * trial[2])
+        if j_val > best_j:
+            best_j = j_val
+            for c in range(3):
+                best_o[c] = trial[c]
+    for c in range(3):
+        o[c] = best_o[c]
     s_in = 0.0
     for j in range(n_in):
         if valid[j]:

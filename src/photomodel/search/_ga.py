@@ -106,6 +106,9 @@ class BinaryGA:
         self._since_improvement = 0
         self.generation = 0
         self.restarts_done = 0
+        self._epoch_best: tuple[float, NDArray[np.float64] | None] = (-np.inf, None)
+        self.epoch_bests: list[tuple[float, NDArray[np.float64]]] = []
+        """Best (fitness, pose) of each finished run between restarts."""
 
     def decode(self, bits: NDArray[np.uint8]) -> NDArray[np.float64]:
         """Pose vectors (P, 6) of chromosomes (P, 72)."""
@@ -128,6 +131,9 @@ class BinaryGA:
             raise ValueError(f"tell: expected {c.population} fitness values, got {len(f)}")
         f = np.where(np.isfinite(f), f, -np.inf)
         improved = self._tracker.update(x, f)
+        i_best = int(np.argmax(f))
+        if f[i_best] > self._epoch_best[0]:
+            self._epoch_best = (float(f[i_best]), np.array(x[i_best], dtype=np.float64))
         self._since_improvement = 0 if improved else self._since_improvement + 1
         self.generation += 1
 
@@ -151,7 +157,20 @@ class BinaryGA:
         if self._since_improvement >= c.patience and self.restarts_done < c.restarts:
             self.restarts_done += 1
             self._since_improvement = 0
+            self._close_epoch()
             self.bits = self.rng.integers(0, 2, size=self.bits.shape, dtype=np.uint8)
+
+    def _close_epoch(self) -> None:
+        if self._epoch_best[1] is not None:
+            self.epoch_bests.append((self._epoch_best[0], self._epoch_best[1]))
+        self._epoch_best = (-np.inf, None)
+
+    def hypotheses(self) -> list[NDArray[np.float64]]:
+        """The best pose of every run (first to last restart), each a local peak to check."""
+        xs = [x for _, x in self.epoch_bests]
+        if self._epoch_best[1] is not None:
+            xs.append(self._epoch_best[1])
+        return xs
 
     def stop(self) -> str | None:
         """Why the search stopped, or None while it goes on."""

@@ -3,7 +3,11 @@
 1. **Global** on the coarsest level, over (x, y, z, in-plane angle) with no tilt: the
    Gray-coded binary GA with restarts on the ``soft`` fitness with the garment's palette
    (``palette_weight``), whose peaks are as wide as the garment, not as a print's repeat.
-2. **Local** on each finer level down to level 0, over all six genes: the ray-coordinate
+2. **Hypotheses**: the best pose of every GA restart (and the overall best) is refined on
+   the next level with the garment's own colours; the best of them goes on. The palette
+   fitness can rank a wrong peak first (a print colour close to the table's), the finer
+   level with own colours rarely does.
+3. **Local** on each finer level down to level 0, over all six genes: the ray-coordinate
    evolution strategy of :class:`~photomodel.search.LocalRefine`, started from the previous
    level's best, its steps scaled to the level's pixel size.
 
@@ -76,16 +80,17 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     flat = np.clip(0.0, lo[3:5], hi[3:5])
     lo[3:5] = flat
     hi[3:5] = flat
-    stages = [run_search(BinaryGA(SearchSpace(lo, hi), c.ga, rng=gen),
-                         fitness_at(c.coarse_level, c.palette_weight))]
-    x = stages[0].x
-    for level in range(c.coarse_level - 1, -1, -1):
-        s = 2.0**level
-        cfg = replace(c.refine, lateral_step=c.refine.lateral_step * s,
-                      depth_step_mm=c.refine.depth_step_mm * s, eps_step=c.refine.eps_step * s)
-        objective = fitness_at(level, 0.0)
-        f0 = float(objective(x[None])[0])
-        stages.append(run_search(LocalRefine(space, x, f0, cfg, gen), objective))
+    ga = BinaryGA(SearchSpace(lo, hi), c.ga, rng=gen)
+    stages = [run_search(ga, fitness_at(c.coarse_level, c.palette_weight))]
+    # Each restart's best is a hypothesis; the next level (own colours, finer samples) decides.
+    level = c.coarse_level - 1
+    candidates = [_refine_at(fitness_at, level, x0, space, c.refine, gen)
+                  for x0 in _distinct([stages[0].x, *ga.hypotheses()], space)]
+    best = max(candidates, key=lambda r: r.fitness)
+    stages.extend(candidates)
+    x = best.x
+    for level in range(c.coarse_level - 2, -1, -1):
+        stages.append(_refine_at(fitness_at, level, x, space, c.refine, gen))
         x = stages[-1].x
     last = stages[-1]
     return SearchResult(
@@ -93,3 +98,25 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
         sum(r.iterations for r in stages), "; ".join(r.stop_reason for r in stages),
         np.concatenate([r.best_history for r in stages]),
         np.concatenate([r.mean_history for r in stages]))
+
+
+def _refine_at(fitness_at: FitnessAt, level: int, x: NDArray[np.float64], space: SearchSpace,
+               refine: RefineConfig, gen: np.random.Generator) -> SearchResult:
+    """:class:`LocalRefine` on pyramid ``level`` from ``x``, steps scaled by 2**level."""
+    s = 2.0**level
+    cfg = replace(refine, lateral_step=refine.lateral_step * s,
+                  depth_step_mm=refine.depth_step_mm * s, eps_step=refine.eps_step * s)
+    objective = fitness_at(level, 0.0)
+    f0 = float(objective(x[None])[0])
+    return run_search(LocalRefine(space, x, f0, cfg, gen), objective)
+
+
+def _distinct(xs: list[NDArray[np.float64]], space: SearchSpace,
+              tolerance: float = 0.02) -> list[NDArray[np.float64]]:
+    """``xs`` without near-repeats (every gene within ``tolerance`` of its range)."""
+    kept: list[NDArray[np.float64]] = []
+    span = np.where(space.span > 0, space.span, 1.0)
+    for x in xs:
+        if all(np.any(np.abs(x - k) / span > tolerance) for k in kept):
+            kept.append(x)
+    return kept
