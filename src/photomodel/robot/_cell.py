@@ -110,14 +110,14 @@ def simulated_hand_eye(arm: ArmModel, q_photo: NDArray[np.float64],
     T_base_target = T_photo @ T_hand_cam1 @ make_transform(np.eye(3), [0.0, 0.0, 650.0])
     hands, targets = [], []
     while len(hands) < n_pairs:
-        dR = Rotation.from_rotvec(gen_rotvec(rng, np.radians(20.0)))
+        dR = Rotation.from_rotvec(_random_rotvec(rng, np.radians(20.0)))
         T_want = T_photo @ make_transform(dR.as_matrix(), rng.uniform(-60.0, 60.0, 3))
         result = inverse_kinematics(arm, T_want, q_photo, rng=rng)
         if not result.success:
             continue
         T_hand = forward_kinematics(arm, result.q)
         T_obs = invert_transform(T_hand @ T_hand_cam1) @ T_base_target
-        noise = make_transform(Rotation.from_rotvec(gen_rotvec(rng, np.radians(noise_deg)))
+        noise = make_transform(Rotation.from_rotvec(_random_rotvec(rng, np.radians(noise_deg)))
                                .as_matrix(), rng.normal(0.0, noise_mm, 3))
         hands.append(T_hand)
         targets.append(T_obs @ noise)
@@ -129,7 +129,7 @@ def simulated_hand_eye(arm: ArmModel, q_photo: NDArray[np.float64],
     return result_he.T_hand_cam1, info
 
 
-def gen_rotvec(rng: np.random.Generator, max_angle_rad: float) -> NDArray[np.float64]:
+def _random_rotvec(rng: np.random.Generator, max_angle_rad: float) -> NDArray[np.float64]:
     """A rotation vector (3,) about a uniform random axis, angle uniform in [0, max]."""
     axis = rng.normal(size=3)
     return axis / np.linalg.norm(axis) * rng.uniform(0.0, max_angle_rad)
