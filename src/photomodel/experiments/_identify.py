@@ -27,10 +27,8 @@ import math
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from functools import lru_cache
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -38,8 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.errors import InputError
-from photomodel.experiments._run import run_metadata
-from photomodel.experiments._trials import ExperimentConfig, _model, limit_threads
+from photomodel.experiments._run import pool_stream, run_metadata
+from photomodel.experiments._trials import ExperimentConfig, _model
 from photomodel.geometry import in_plane_angle_rad
 
 __all__ = [
@@ -277,15 +275,7 @@ def _stream(config: IdentifyExperimentConfig, trials: list[IdentifyTrial],
         for t in trials:
             yield run_identify_trial(config, t)
         return
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
-                             initializer=limit_threads) as pool:
-        futures = [pool.submit(run_identify_trial, config, t) for t in trials]
-        try:
-            for fut in as_completed(futures):
-                yield fut.result()
-        finally:
-            for fut in futures:
-                fut.cancel()
+    yield from pool_stream(run_identify_trial, config, trials, workers)
 
 
 def run_identify_experiment(

@@ -14,7 +14,7 @@ import os
 import platform
 import subprocess
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
@@ -87,11 +87,17 @@ def _in_process(config: ExperimentConfig, trials: list[Trial]) -> Iterator[dict[
         yield run_trial(config, trial)
 
 
-def _local_pool(config: ExperimentConfig, trials: list[Trial],
+def pool_stream(run: Callable[[Any, Any], dict[str, Any]], config: Any, trials: Sequence[Any],
                 workers: int) -> Iterator[dict[str, Any]]:
+    """``run(config, trial)`` for every trial in a local process pool, yielded as they finish.
+
+    Workers are spawned (no inherited numba threads) and limited by
+    :func:`~photomodel.experiments._trials.limit_threads`; leaving the loop early cancels the
+    trials not yet started.
+    """
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
                              initializer=limit_threads) as pool:
-        futures = [pool.submit(run_trial, config, t) for t in trials]
+        futures = [pool.submit(run, config, t) for t in trials]
         try:
             for fut in as_completed(futures):
                 yield fut.result()
@@ -166,7 +172,7 @@ def run_experiment(
     elif workers == 1 or len(pending) <= 1:
         stream, executor = _in_process(config, pending), "in-process"
     else:
-        stream = _local_pool(config, pending, min(workers, len(pending)))
+        stream = pool_stream(run_trial, config, pending, min(workers, len(pending)))
         executor = f"{min(workers, len(pending))} local processes"
     t0 = time.perf_counter()
     n_done = len(trials) - len(pending)
