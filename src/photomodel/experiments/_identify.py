@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.errors import InputError
-from photomodel.experiments._run import pool_stream, run_metadata
+from photomodel.experiments._run import config_changes, pool_stream, run_metadata, write_config
 from photomodel.experiments._trials import ExperimentConfig, _model
 from photomodel.geometry import in_plane_angle_rad
 
@@ -300,19 +300,11 @@ def run_identify_experiment(
     out.mkdir(parents=True, exist_ok=True)
     cfg_path = out / "identify_config.json"
     wanted = config.to_json_dict()
-    if cfg_path.exists():
-        try:
-            found = json.loads(cfg_path.read_text())
-        except (OSError, ValueError) as exc:
-            raise InputError(cfg_path, f"cannot read: {exc}") from None
-        diff = sorted(k for k in set(found) | set(wanted)
-                      if found.get(k) != wanted.get(k) and k != "min_score")
-        if diff:
-            raise InputError(out, "holds an identification experiment with other settings "
-                                  f"({', '.join(diff)}); choose another --out")
-    tmp = cfg_path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(wanted, indent=1) + "\n")
-    os.replace(tmp, cfg_path)
+    diff = config_changes(cfg_path, wanted, ignore=("min_score",))
+    if diff:
+        raise InputError(out, "holds an identification experiment with other settings "
+                              f"({', '.join(diff)}); choose another --out")
+    write_config(cfg_path, wanted)
     records = out / "identify.csv"
     trials = plan_identify_trials(config)
     if not trials:

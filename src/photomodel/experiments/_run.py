@@ -62,24 +62,40 @@ def run_metadata() -> dict[str, Any]:
                         "cpus": os.cpu_count(), "python": platform.python_version()}}
 
 
+def config_changes(path: Path, wanted: dict[str, Any],
+                   ignore: tuple[str, ...] = ()) -> list[str] | None:
+    """Keys whose values in the run's stored config ``path`` differ from ``wanted`` (sorted,
+    ``ignore`` left out), or None when no config is stored yet."""
+    if not path.exists():
+        return None
+    try:
+        found = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read: {exc}") from None
+    return sorted(k for k in set(found) | set(wanted)
+                  if found.get(k) != wanted.get(k) and k not in ignore)
+
+
+def write_config(path: Path, config: dict[str, Any]) -> None:
+    """Write a run's config JSON atomically."""
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(config, indent=1) + "\n")
+    os.replace(tmp, path)
+
+
 def _check_config(out: Path, config: ExperimentConfig) -> None:
     path = out / "config.json"
     wanted = config.to_json_dict()
-    if path.exists():
-        try:
-            found = json.loads(path.read_text())
-        except (OSError, ValueError) as exc:
-            raise InputError(path, f"cannot read: {exc}") from None
-        diff = sorted(k for k in set(found) | set(wanted) if found.get(k) != wanted.get(k))
-        grows = diff == ["trials"] and int(wanted["trials"]) > int(found.get("trials") or 0)
+    diff = config_changes(path, wanted)
+    if diff is not None:
+        found_trials = json.loads(path.read_text()).get("trials") if diff == ["trials"] else 0
+        grows = diff == ["trials"] and int(wanted["trials"]) > int(found_trials or 0)
         if diff and not grows:
             raise InputError(out, "holds an experiment with other settings "
                                   f"({', '.join(diff)}); choose another --out to start afresh")
         if not grows:
             return
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(wanted, indent=1) + "\n")
-    os.replace(tmp, path)
+    write_config(path, wanted)
 
 
 def _in_process(config: ExperimentConfig, trials: list[Trial]) -> Iterator[dict[str, Any]]:
