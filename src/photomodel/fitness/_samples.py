@@ -14,6 +14,13 @@ pyramid level are drawn here from the photo instead of the fixed S_in / S_out of
 * every inner point keeps the model photo's log-opponent colour there
   (:func:`photomodel.image.log_opponent`), and every band point the colour of the nearest
   inner-ring point: the garment colour a band point must *not* see.
+* the photo is blurred as the scene images are before the colours are read: by the hand
+  camera's optics in grey levels (``optics_blur_mm``, estimated per scene by the search, since
+  a print's colours mix in the sensor's values, not in their logarithms), then by the
+  feature smoothing and the pyramid in the log-opponent features (``blur_mm``).
+
+The point geometry does not depend on the blurs: it is computed once per model and spacing,
+the colours once per blur.
 
 Offset points that land on the wrong side of the edge (at concave corners, in narrow gaps)
 are dropped by a distance-transform check.
@@ -22,7 +29,8 @@ are dropped by a distance-transform check.
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -53,9 +61,12 @@ class SampleSpacing:
         Outer rings (the band), ``band_step_mm`` apart.
     band_step_mm : float
     blur_mm : float
-        Gaussian blur of the model photo before its colours are sampled, mm on the garment:
-        as much as the scene images of that level have, so a fine print averages to the
-        same colour in both.
+        Gaussian blur of the model photo's log-opponent features before its colours are
+        sampled, mm on the garment: as much as the scene's feature images of that level
+        have (smoothing and pyramid), so a fine print averages to the same colour in both.
+    optics_blur_mm : float
+        Gaussian blur of the model photo's grey levels before that, mm on the garment: the
+        hand camera's optical blur (focus, motion), applied where the camera applies it.
     """
 
     grid_mm: float = 4.0
@@ -63,14 +74,20 @@ class SampleSpacing:
     ring_step_mm: float = 1.5
     band_rings: int = 3
     band_step_mm: float = 2.0
-    blur_mm: float = 0.8
+    blur_mm: float = 0.6
+    optics_blur_mm: float = 0.0
 
     def scaled(self, factor: float, blur_mm: float | None = None) -> SampleSpacing:
         """Every distance multiplied by ``factor`` (a coarser pyramid level), a new blur."""
-        return SampleSpacing(self.grid_mm * factor, self.ring_mm * factor,
-                             self.ring_step_mm * factor, self.band_rings,
-                             self.band_step_mm * factor,
-                             self.blur_mm * factor if blur_mm is None else blur_mm)
+        return replace(self, grid_mm=self.grid_mm * factor, ring_mm=self.ring_mm * factor,
+                       ring_step_mm=self.ring_step_mm * factor,
+                       band_step_mm=self.band_step_mm * factor,
+                       blur_mm=self.blur_mm * factor if blur_mm is None else blur_mm)
+
+    @property
+    def geometry(self) -> SampleSpacing:
+        """This spacing without its blurs: what the sample points depend on."""
+        return replace(self, blur_mm=0.0, optics_blur_mm=0.0)
 
 
 @dataclass(frozen=True)
@@ -79,14 +96,29 @@ class ModelSamples:
 
     ``p_in`` (N, 3), ``f_in`` (N, 3): inner ring and interior; ``p_out`` (M, 3),
     ``f_out`` (M, 3): the band and the garment colour next to each band point;
-    ``palette`` (K, 3): the garment's main colours (k-means of ``f_in``, K <= 6).
+    ``palette`` (K, 3): the garment's main colours (k-means of ``f_in``, K <= 6, computed
+    on first use).
     """
 
     p_in: NDArray[np.float64]
     f_in: NDArray[np.float64]
     p_out: NDArray[np.float64]
     f_out: NDArray[np.float64]
-    palette: NDArray[np.float64]
+
+    @cached_property
+    def palette(self) -> NDArray[np.float64]:
+        return _palette(self.f_in)
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """The blur-free part of :class:`ModelSamples`: points (model frame and photo crop)."""
+
+    p_in: NDArray[np.float64]
+    p_out: NDArray[np.float64]
+    uv_in: NDArray[np.float64]
+    nearest_in: NDArray[np.intp]
+    px_per_mm: float
 
 
 def _model_camera(model: PhotoModel) -> tuple[PinholeCamera, float, NDArray[np.float64]]:
@@ -114,14 +146,14 @@ def _lookup(image: NDArray[np.float32], uv: NDArray[np.float64]) -> NDArray[np.f
     return out.reshape(len(uv), -1)
 
 
-_CACHE: dict[int, dict[SampleSpacing, ModelSamples]] = {}
+_CACHE: dict[int, dict[SampleSpacing, ModelSamples | _Geometry]] = {}
 
 
 def model_samples(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
     """Sample points and colours of ``model`` at ``spacing`` (see the module docstring).
 
     Cached per model object (while it lives) and spacing: a library of models is sampled
-    once, not once per stereo pair.
+    once, not once per stereo pair. The points are shared by every blur of one spacing.
     """
     key = id(model)
     if key not in _CACHE:
@@ -129,11 +161,36 @@ def model_samples(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
         weakref.finalize(model, _CACHE.pop, key, None)
     per_model = _CACHE[key]
     if spacing not in per_model:
-        per_model[spacing] = _sample(model, spacing)
-    return per_model[spacing]
+        shape = spacing.geometry
+        if shape not in per_model:
+            per_model[shape] = _geometry(model, shape)
+        geometry = per_model[shape]
+        assert isinstance(geometry, _Geometry)
+        per_model[spacing] = _coloured(model, geometry, spacing)
+    samples = per_model[spacing]
+    assert isinstance(samples, ModelSamples)
+    return samples
 
 
-def _sample(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
+def _lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Model-plane points (N, 2) as (N, 3) with z = 0."""
+    return np.ascontiguousarray(np.column_stack([xy, np.zeros(len(xy))]))
+
+
+def _coloured(model: PhotoModel, geometry: _Geometry, spacing: SampleSpacing) -> ModelSamples:
+    """The samples of ``geometry`` with the photo's colours under ``spacing``'s blurs."""
+    photo = model.photo_bgr
+    if spacing.optics_blur_mm > 0:
+        blurred = cv2.GaussianBlur(photo.astype(np.float32), (0, 0),
+                                   spacing.optics_blur_mm * geometry.px_per_mm)
+        photo = np.clip(np.rint(blurred), 0, 255).astype(np.uint8)
+    colours = log_opponent(photo, smooth_sigma_px=max(spacing.blur_mm * geometry.px_per_mm, 0.3))
+    f_in = np.ascontiguousarray(_lookup(colours, geometry.uv_in), dtype=np.float64)
+    return ModelSamples(geometry.p_in, f_in, geometry.p_out,
+                        np.ascontiguousarray(f_in[geometry.nearest_in]))
+
+
+def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
     camera, distance_mm, centroid = _model_camera(model)
     origin = np.asarray(model.crop_origin_px, dtype=np.float64)
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
@@ -182,17 +239,9 @@ def _sample(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
         rings.append(ring[keep(ring, dist_out, d_mm)] if len(ring) else ring)
     p_out = np.concatenate(rings) if rings else np.zeros((0, 2))
 
-    colours = log_opponent(model.photo_bgr, smooth_sigma_px=max(spacing.blur_mm * px_per_mm,
-                                                                0.3))
-    f_in = _lookup(colours, to_crop(p_in)).astype(np.float64)
     _, nearest = cKDTree(inner).query(p_out)
-    f_out = f_in[nearest]
-
-    def lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.ascontiguousarray(np.column_stack([xy, np.zeros(len(xy))]))
-
-    return ModelSamples(lift(p_in), np.ascontiguousarray(f_in), lift(p_out),
-                        np.ascontiguousarray(f_out), _palette(f_in))
+    return _Geometry(_lift(p_in), _lift(p_out), to_crop(p_in), np.asarray(nearest, np.intp),
+                     px_per_mm)
 
 
 def _palette(colours: NDArray[np.float64], max_colours: int = 6) -> NDArray[np.float64]:

@@ -31,7 +31,7 @@ averaged. What changes, and why:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,13 +112,24 @@ HAND_MM_PER_PX = 0.86
 685 mm at f = 800 px): converts the pyramid's blur into the model photo's."""
 
 
-def level_spacing(level: int, base: SampleSpacing | None = None) -> SampleSpacing:
-    """Sample spacing for pyramid ``level``: ``base`` scaled by 2**level, and the model blur
-    matched to the level's (``cv2.pyrDown`` adds about one pixel of its input per level, so
-    level k has a blur of sqrt((4**k - 1) / 3) level-0 pixels on top of the camera's)."""
+DEFAULT_OPTICS_BLUR_MM = 0.5
+"""Optical blur assumed until the search has estimated the scene's: a hand camera in focus
+(about 0.6 pixel)."""
+
+
+def level_spacing(level: int, base: SampleSpacing | None = None,
+                  optics_blur_mm: float = DEFAULT_OPTICS_BLUR_MM) -> SampleSpacing:
+    """Sample spacing for pyramid ``level``: ``base`` scaled by 2**level, and the model blurs
+    matched to the level's.
+
+    ``base.blur_mm`` is the level-0 feature smoothing; ``cv2.pyrDown`` adds about one pixel of
+    its input per level, so level k has a feature blur of sqrt((4**k - 1) / 3) level-0 pixels
+    on top of it. ``optics_blur_mm`` is the camera's blur of the grey levels, the same at every
+    level."""
     base = base or SampleSpacing()
     blur_px = np.sqrt((4.0**level - 1.0) / 3.0 + (base.blur_mm / HAND_MM_PER_PX) ** 2)
-    return base.scaled(2.0**level, blur_mm=float(blur_px * HAND_MM_PER_PX))
+    return replace(base.scaled(2.0**level, blur_mm=float(blur_px * HAND_MM_PER_PX)),
+                   optics_blur_mm=float(optics_blur_mm))
 
 
 class SoftFitness:
@@ -131,25 +142,28 @@ class SoftFitness:
     level : int
         Pyramid level to sample (0 = full resolution).
     spacing : SampleSpacing, optional
-        Defaults to :func:`level_spacing` of ``level``.
+        Defaults to :func:`level_spacing` of ``level`` and ``optics_blur_mm``.
     palette_weight : float
         A sample agrees at least this fraction as well as the best of the garment's main
         colours (is it garment at all?), not only as well as its own point's colour (is it
         this part of the garment?). 0 = own colours only. A print's own pattern makes narrow
         peaks; the palette widens them to the garment's size, for the global search.
+    optics_blur_mm : float
+        The scene camera's optical blur, mm on the garment (ignored with ``spacing``).
     name : str
     """
 
     def __init__(self, model: PhotoModel, features: StereoFeatures, level: int = 0,
                  spacing: SampleSpacing | None = None, *, palette_weight: float = 0.0,
-                 name: str = "soft") -> None:
+                 optics_blur_mm: float = DEFAULT_OPTICS_BLUR_MM, name: str = "soft") -> None:
         if not 0 <= level < features.levels:
             raise ValueError(f"level: expected 0..{features.levels - 1}, got {level}")
         self.name = name
         self.model = model
         self.features = features
         self.level = level
-        self.samples: ModelSamples = model_samples(model, spacing or level_spacing(level))
+        self.samples: ModelSamples = model_samples(
+            model, spacing or level_spacing(level, optics_blur_mm=optics_blur_mm))
         if not 0.0 <= palette_weight <= 1.0:
             raise ValueError(f"palette_weight: expected [0, 1], got {palette_weight}")
         self.palette_weight = float(palette_weight)

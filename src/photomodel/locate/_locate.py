@@ -233,7 +233,8 @@ def locate_in_features(
 
     t0 = time.perf_counter() if t0 is None else t0
     result = pyramid_search(
-        lambda level, weight: SoftFitness(model, features, level, palette_weight=weight),
+        lambda level, weight, blur: SoftFitness(model, features, level, palette_weight=weight,
+                                                optics_blur_mm=blur),
         space or SearchSpace.from_ranges(), rng=np.random.default_rng(rng))
     T = pose_vectors_to_matrices(result.x)[0]
     score = float(np.clip(result.fitness, 0.0, 1.0))

@@ -9,7 +9,8 @@ from photomodel.search._cmaes import CMAES, CMAConfig
 from photomodel.search._de import DEConfig, DifferentialEvolution
 from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
-from photomodel.search._pyramid import PyramidConfig, pyramid_search
+from photomodel.search._localcma import LocalCMA, LocalCMAConfig
+from photomodel.search._pyramid import PyramidConfig, PyramidResult, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
 from photomodel.search._refine import GlobalThenLocal, LocalRefine, RefineConfig
 from photomodel.search._space import GENE_NAMES, SearchSpace
@@ -29,9 +30,12 @@ __all__ = [
     "FullSearchConfig",
     "GAConfig",
     "GlobalThenLocal",
+    "LocalCMA",
+    "LocalCMAConfig",
     "LocalRefine",
     "Optimizer",
     "PyramidConfig",
+    "PyramidResult",
     "RealGA",
     "RealGAConfig",
     "RefineConfig",
