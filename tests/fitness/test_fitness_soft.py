@@ -75,8 +75,9 @@ def test_light_offsets_are_estimated() -> None:
 def test_pyramid_search_finds_a_grey_garment() -> None:
     model, rig, right, left, T_true, _ = _case("No.6")
     features = StereoFeatures(rig, right, left)
-    result = pyramid_search(lambda lv, w, b: SoftFitness(model, features, lv, palette_weight=w, optics_blur_mm=b),
-                            SearchSpace.from_ranges(), rng=0)
+    result = pyramid_search(
+        lambda lv, w, b: SoftFitness(model, features, lv, palette_weight=w, optics_blur_mm=b),
+        SearchSpace.from_ranges(), rng=0)
     T = pose_vectors_to_matrices(result.x)[0]
     assert np.hypot(*(T[:2, 3] - T_true[:2, 3])) < 2.0
     assert abs(T[2, 3] - T_true[2, 3]) < 10.0

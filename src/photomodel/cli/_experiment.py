@@ -58,7 +58,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="threshold applied (default: the stored, calibrated one)")
     g.add_argument("--calibrate", action="store_true",
                    help="calibrate the threshold on this run's records and store it with the "
-                        "package (photomodel/identify/threshold.json)")
+                        "package (photomodel/locate/threshold.json)")
     p.set_defaults(run=run)
 
 

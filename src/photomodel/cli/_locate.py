@@ -51,8 +51,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--z-mm", type=float, nargs=2, default=(500.0, 900.0), metavar=("LO", "HI"))
     p.add_argument("--theta-deg", type=float, default=53.0, help="in-plane angle range +-")
     p.add_argument("--tilt-deg", type=float, default=10.0, help="tilt range +-")
-    p.add_argument("--min-score", type=float, default=DEFAULT_MIN_SCORE,
-                   help="score in [0, 1] from which the garment counts as found")
+    p.add_argument("--min-score", type=float, default=None,
+                   help="score in [0, 1] from which the garment counts as found (default: the "
+                        f"calibrated threshold with the soft fitness, {DEFAULT_MIN_SCORE} with "
+                        "the others)")
     p.add_argument("--overlay", type=Path, default=None,
                    help="write a PNG with the found outline on both images")
     p.set_defaults(run=run)

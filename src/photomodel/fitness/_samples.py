@@ -177,14 +177,28 @@ def _lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.column_stack([xy, np.zeros(len(xy))]))
 
 
+def _garment_blur(image: NDArray[np.float32], mask: NDArray[np.float32],
+                  sigma_px: float) -> NDArray[np.float32]:
+    """Gaussian blur of ``image`` (H, W, 3) over the garment only (normalised convolution
+    with ``mask``): the model station's backdrop must not bleed into the garment's colours,
+    it is not what lies around the garment in the scene."""
+    if sigma_px <= 0:
+        return image
+    weight = cv2.GaussianBlur(mask, (0, 0), sigma_px)
+    blurred = cv2.GaussianBlur(image * mask[..., None], (0, 0), sigma_px)
+    return blurred / np.maximum(weight, 1e-3)[..., None]
+
+
 def _coloured(model: PhotoModel, geometry: _Geometry, spacing: SampleSpacing) -> ModelSamples:
     """The samples of ``geometry`` with the photo's colours under ``spacing``'s blurs."""
+    mask = model.mask.astype(np.float32)
     photo = model.photo_bgr
     if spacing.optics_blur_mm > 0:
-        blurred = cv2.GaussianBlur(photo.astype(np.float32), (0, 0),
-                                   spacing.optics_blur_mm * geometry.px_per_mm)
+        blurred = _garment_blur(photo.astype(np.float32), mask,
+                                spacing.optics_blur_mm * geometry.px_per_mm)
         photo = np.clip(np.rint(blurred), 0, 255).astype(np.uint8)
-    colours = log_opponent(photo, smooth_sigma_px=max(spacing.blur_mm * geometry.px_per_mm, 0.3))
+    colours = _garment_blur(log_opponent(photo), mask,
+                            max(spacing.blur_mm * geometry.px_per_mm, 0.3))
     f_in = np.ascontiguousarray(_lookup(colours, geometry.uv_in), dtype=np.float64)
     return ModelSamples(geometry.p_in, f_in, geometry.p_out,
                         np.ascontiguousarray(f_in[geometry.nearest_in]))

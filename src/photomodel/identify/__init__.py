@@ -2,8 +2,9 @@
 
 Colour evidence drops models whose colours the images lack (:mod:`._screen`), the rest are
 located with the default ``soft`` method in features computed once (:mod:`._identify`), and
-the best is accepted against a threshold calibrated on simulated scenes and stored with the
-package (:mod:`._threshold`, ``threshold.json``; :mod:`._calibrate` re-derives it).
+the best is accepted against the threshold calibrated on simulated scenes and stored with the
+package (:mod:`photomodel.locate._threshold`, ``threshold.json``; ``photomodel experiment
+--identify --calibrate`` re-derives it).
 """
 
 from photomodel.identify._identify import (
@@ -14,7 +15,7 @@ from photomodel.identify._identify import (
     identify_in_features,
 )
 from photomodel.identify._screen import ScreenConfig, colour_evidence
-from photomodel.identify._threshold import (
+from photomodel.locate._threshold import (
     THRESHOLD_FILE,
     Threshold,
     calibrate_threshold,

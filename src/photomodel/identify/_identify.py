@@ -41,8 +41,8 @@ from numpy.typing import NDArray
 from photomodel.camera import StereoRig
 from photomodel.fitness import StereoFeatures
 from photomodel.identify._screen import ScreenConfig, colour_evidence
-from photomodel.identify._threshold import load_threshold
 from photomodel.locate import LocateResult, locate_in_features
+from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import SearchSpace
 

@@ -10,14 +10,26 @@ from photomodel.locate._locate import (
     make_optimizer,
 )
 from photomodel.locate._overlay import draw_overlay
+from photomodel.locate._threshold import (
+    THRESHOLD_FILE,
+    Threshold,
+    calibrate_threshold,
+    load_threshold,
+    save_threshold,
+)
 
 __all__ = [
     "DEFAULT_FITNESS",
     "DEFAULT_MIN_SCORE",
     "PAPER_METHOD",
+    "THRESHOLD_FILE",
     "LocateResult",
+    "Threshold",
+    "calibrate_threshold",
     "draw_overlay",
     "locate",
+    "load_threshold",
     "locate_in_features",
     "make_optimizer",
+    "save_threshold",
 ]

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from photomodel.camera import StereoRig
 from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
+from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import (
     BinaryGA,
@@ -38,8 +39,9 @@ __all__ = [
 ]
 
 DEFAULT_MIN_SCORE = 0.5
-"""Score above which the garment counts as found: at the true pose about 0.8-0.95 of the
-S_in points match in both images, on a garment-free table well under 0.3 do."""
+"""Score from which the garment counts as found with the ``paper`` and ``balanced`` fitness
+(not calibrated). The ``soft`` fitness uses the calibrated threshold of
+:func:`~photomodel.locate.load_threshold`."""
 
 OptimizerName = Literal["ga", "full", "rga", "cma", "de"]
 
@@ -132,7 +134,7 @@ def locate(
     refine: bool = True,
     rng: int | np.random.Generator | None = None,
     space: SearchSpace | None = None,
-    min_score: float = DEFAULT_MIN_SCORE,
+    min_score: float | None = None,
     ga_config: GAConfig | None = None,
     full_config: FullSearchConfig | None = None,
     refine_config: RefineConfig | None = None,
@@ -160,8 +162,10 @@ def locate(
         Seed of the stochastic search.
     space : SearchSpace, optional
         Defaults to the paper's experiment (``SearchSpace.from_ranges()``).
-    min_score : float
-        Score in [0, 1] from which the garment counts as found.
+    min_score : float, optional
+        Score in [0, 1] from which the garment counts as found. Default: the calibrated
+        threshold (:func:`~photomodel.locate.load_threshold`) for ``soft``,
+        :data:`DEFAULT_MIN_SCORE` otherwise.
     progress : callable, optional
         Called with the optimiser after each generation / batch.
 
@@ -184,13 +188,14 @@ def locate(
     seconds = time.perf_counter() - t0
     T = pose_vectors_to_matrices(result.x)[0]
     score = objective.score(result.fitness)
-    return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
+    threshold = DEFAULT_MIN_SCORE if min_score is None else min_score
+    return LocateResult(model.name, bool(score >= threshold), T, float(result.fitness), score,
                         seconds, result)
 
 
 def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
                  left_bgr: NDArray[np.uint8], space: SearchSpace, rng: np.random.Generator,
-                 min_score: float, t0: float) -> LocateResult:
+                 min_score: float | None, t0: float) -> LocateResult:
     """The ``soft`` fitness searched coarse to fine (:func:`~photomodel.search.pyramid_search`)."""
     features = StereoFeatures(rig, right_bgr, left_bgr)
     return locate_in_features(model, features, space=space, rng=rng, min_score=min_score, t0=t0)
@@ -202,7 +207,7 @@ def locate_in_features(
     *,
     space: SearchSpace | None = None,
     rng: int | np.random.Generator | None = None,
-    min_score: float = DEFAULT_MIN_SCORE,
+    min_score: float | None = None,
     t0: float | None = None,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
@@ -219,8 +224,9 @@ def locate_in_features(
         Defaults to the paper's experiment.
     rng : int, Generator or None
         Seed of the stochastic search.
-    min_score : float
-        Score in [0, 1] from which the garment counts as found.
+    min_score : float, optional
+        Score in [0, 1] from which the garment counts as found (default: the calibrated
+        threshold, :func:`~photomodel.locate.load_threshold`).
     t0 : float, optional
         ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
         from it.
@@ -238,5 +244,7 @@ def locate_in_features(
         space or SearchSpace.from_ranges(), rng=np.random.default_rng(rng))
     T = pose_vectors_to_matrices(result.x)[0]
     score = float(np.clip(result.fitness, 0.0, 1.0))
+    if min_score is None:
+        min_score = load_threshold().min_score
     return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
                         time.perf_counter() - t0, result)

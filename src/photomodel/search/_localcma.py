@@ -35,7 +35,9 @@ class LocalCMAConfig:
     """Settings of :class:`LocalCMA`.
 
     The start steps are those of :class:`~photomodel.search.RefineConfig` (1 mm sideways at
-    685 mm, 4 mm in depth, 0.005 in eps); ``sigma0``, ``tolx`` are in units of them.
+    685 mm, 4 mm in depth, 0.005 in eps); ``sigma0``, ``tolx`` and ``radius`` are in units of
+    them. ``radius`` bounds the search around the start (``cma``'s boundary handling): a
+    refinement that walks away over a plateau is no longer one.
     """
 
     popsize: int = 16
@@ -43,6 +45,7 @@ class LocalCMAConfig:
     depth_step_mm: float = 4.0
     eps_step: float = 0.005
     sigma0: float = 1.0
+    radius: float = 4.0
     tolx: float = 0.05
     tolfun: float = 1e-5
     maxfevals: int = 2000
@@ -50,8 +53,9 @@ class LocalCMAConfig:
     def __post_init__(self) -> None:
         if self.popsize < 2 or self.maxfevals < 1:
             raise ValueError("popsize must be >= 2 and maxfevals >= 1")
-        if not (self.sigma0 > 0 and self.tolx > 0 and self.tolfun >= 0):
-            raise ValueError("expected sigma0 > 0, tolx > 0 and tolfun >= 0")
+        if not (self.sigma0 > 0 and self.tolx > 0 and self.tolfun >= 0
+                and self.radius > self.sigma0):
+            raise ValueError("expected sigma0 > 0, tolx > 0, tolfun >= 0, radius > sigma0")
 
     def scaled(self, factor: float) -> LocalCMAConfig:
         """The start steps multiplied by ``factor`` (a pyramid level 2**k coarser)."""
@@ -89,7 +93,7 @@ class LocalCMA:
                                c.eps_step, c.eps_step, c.eps_step])
         self._pending: list[NDArray[np.float64]] | None = None
         self.es = cma.CMAEvolutionStrategy(np.zeros(6).tolist(), c.sigma0, {
-            "popsize": c.popsize, "maxfevals": c.maxfevals, "tolx": c.tolx,
+            "popsize": c.popsize, "bounds": [-c.radius, c.radius], "maxfevals": c.maxfevals, "tolx": c.tolx,
             "tolfun": c.tolfun, "seed": math.nan, "randn": self._randn,
             "verbose": -9, "verb_log": 0, "verb_disp": 0})
 

@@ -61,6 +61,8 @@ class PyramidConfig:
         Camera blur of the global stage, mm on the garment.
     optics_blur_candidates_mm : tuple of float
         Camera blurs the local stages choose from (empty: keep ``optics_blur_mm``).
+    optics_blur_margin : float
+        Fitness by which a candidate blur must beat the current one to replace it.
     """
 
     coarse_level: int = 3
@@ -71,6 +73,7 @@ class PyramidConfig:
     local: LocalCMAConfig = field(default_factory=LocalCMAConfig)
     optics_blur_mm: float = 0.5
     optics_blur_candidates_mm: tuple[float, ...] = (0.0, 0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8)
+    optics_blur_margin: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -129,11 +132,11 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     evaluations = 0
     for level in range(c.coarse_level - 2, -1, -1):
         blur, objective = _sharpest_fit(fitness_at, level, x, c, blur)
-        evaluations += len(c.optics_blur_candidates_mm)
+        evaluations += len(c.optics_blur_candidates_mm) + 1
         stages.append(_local_at(objective, level, x, space, c.local, gen))
         x = stages[-1].x
     again, objective = _sharpest_fit(fitness_at, 0, x, c, blur)
-    evaluations += len(c.optics_blur_candidates_mm)
+    evaluations += len(c.optics_blur_candidates_mm) + 1
     if again != blur:
         blur = again
         stages.append(_local_at(objective, 0, x, space, c.local, gen))
@@ -147,13 +150,20 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
 
 def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
                   config: PyramidConfig, blur_mm: float) -> tuple[float, Fitness]:
-    """The candidate camera blur whose ``level`` fitness is highest at ``x``, and that
-    fitness (``blur_mm`` itself when there are no candidates)."""
+    """The camera blur for ``level`` at ``x``, and that level's fitness with it.
+
+    The candidate with the highest fitness, when it beats ``blur_mm`` (the current one) by
+    ``config.optics_blur_margin``; else ``blur_mm``. A plain garment looks the same at every
+    blur (its fitness curve is flat to +-0.01), and its noise must not choose one.
+    """
+    current = fitness_at(level, 0.0, blur_mm)
     if not config.optics_blur_candidates_mm:
-        return blur_mm, fitness_at(level, 0.0, blur_mm)
+        return blur_mm, current
+    f_current = float(current(x[None])[0])
     fits = [(b, fitness_at(level, 0.0, b)) for b in config.optics_blur_candidates_mm]
     values = [float(f(x[None])[0]) for _, f in fits]
-    return fits[int(np.argmax(values))]
+    k = int(np.argmax(values))
+    return fits[k] if values[k] > f_current + config.optics_blur_margin else (blur_mm, current)
 
 
 def _refine_at(objective: Fitness, level: int, x: NDArray[np.float64], space: SearchSpace,

@@ -1,13 +1,14 @@
-"""The stored decision threshold of ``identify`` and how it is calibrated.
+"""The stored score threshold from which a located garment counts as on the table.
 
-``identify`` accepts its best model when that model's ``locate`` score reaches
-``min_score``. The number is not chosen in the code: :func:`calibrate_threshold` takes the
-scores of the true model in simulated scenes that show a library garment (*positives*) and the
-best score of any model in scenes that show none (*negatives*: empty tables, other garments and
-objects), and puts the threshold where it separates them best under a cap on false acceptance;
-``photomodel identify-calibrate`` (:mod:`photomodel.identify._calibrate`) runs it and writes
-``threshold.json`` beside this module with the command, seed, counts and commit, which
-:func:`load_threshold` reads.
+``locate`` (``soft`` fitness) reports ``found`` and ``identify`` accepts its best model when
+the score reaches ``min_score``. The number is not chosen in the code:
+:func:`calibrate_threshold` takes the scores of the true model in simulated scenes that show a
+library garment (*positives*) and the best score of any model in scenes that show none
+(*negatives*: empty tables, other garments and objects), and puts the threshold where it
+separates them best under a cap on false acceptance. ``photomodel experiment --identify
+--calibrate`` (:mod:`photomodel.experiments._identify`) runs it and writes ``threshold.json``
+beside this module with the command, seed, counts and commit, which :func:`load_threshold`
+reads.
 """
 
 from __future__ import annotations
@@ -112,7 +113,7 @@ def calibrate_threshold(positives: ArrayLike, negatives: ArrayLike, *,
 
 
 def _data_path() -> Path:
-    return Path(str(resources.files("photomodel.identify").joinpath(THRESHOLD_FILE)))
+    return Path(str(resources.files("photomodel.locate").joinpath(THRESHOLD_FILE)))
 
 
 def load_threshold(path: str | os.PathLike[str] | None = None) -> Threshold:
