@@ -220,7 +220,7 @@ def identify_in_features(
         for i in chosen:
             r = locate_in_features(models[i], features, space=space,
                                    rng=_model_rng(base, models[i].name, attempt),
-                                   min_score=min_score, t0=time.perf_counter())
+                                   min_score=min_score, t0=time.perf_counter(), retries=0)
             if i not in located or r.score > located[i].score:
                 located[i] = r
     candidates = tuple(Candidate(models[int(i)].name, float(evidence[i]), located.get(int(i)))

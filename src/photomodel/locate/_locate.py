@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -209,6 +209,7 @@ def locate_in_features(
     rng: int | np.random.Generator | None = None,
     min_score: float | None = None,
     t0: float | None = None,
+    retries: int = 1,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -230,6 +231,11 @@ def locate_in_features(
     t0 : float, optional
         ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
         from it.
+    retries : int
+        Searches again (continuing the random stream) while the best score stays below
+        ``min_score``, at most this many times, and keeps the best: the global stage misses
+        the garment now and then, rarely twice. A scene without the garment costs
+        ``1 + retries`` searches.
 
     Returns
     -------
@@ -238,13 +244,28 @@ def locate_in_features(
     from photomodel.search import pyramid_search
 
     t0 = time.perf_counter() if t0 is None else t0
-    result = pyramid_search(
-        lambda level, weight, blur: SoftFitness(model, features, level, palette_weight=weight,
-                                                optics_blur_mm=blur),
-        space or SearchSpace.from_ranges(), rng=np.random.default_rng(rng))
-    T = pose_vectors_to_matrices(result.x)[0]
-    score = float(np.clip(result.fitness, 0.0, 1.0))
+    if retries < 0:
+        raise ValueError(f"retries: expected >= 0, got {retries}")
     if min_score is None:
         min_score = load_threshold().min_score
-    return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
-                        time.perf_counter() - t0, result)
+    gen = np.random.default_rng(rng)
+    space = space or SearchSpace.from_ranges()
+    best: SearchResult | None = None
+    searches = evaluations = 0
+    while searches <= retries and (best is None or best.fitness < min_score):
+        attempt = pyramid_search(
+            lambda level, weight, blur: SoftFitness(model, features, level,
+                                                    palette_weight=weight, optics_blur_mm=blur),
+            space, rng=gen)
+        searches += 1
+        evaluations += attempt.evaluations
+        if best is None or attempt.fitness > best.fitness:
+            best = attempt
+    assert best is not None
+    if searches > 1:
+        best = replace(best, evaluations=evaluations,
+                       stop_reason=f"best of {searches} searches: {best.stop_reason}")
+    T = pose_vectors_to_matrices(best.x)[0]
+    score = float(np.clip(best.fitness, 0.0, 1.0))
+    return LocateResult(model.name, bool(score >= min_score), T, float(best.fitness), score,
+                        time.perf_counter() - t0, best)

@@ -93,8 +93,8 @@ class LocalCMA:
                                c.eps_step, c.eps_step, c.eps_step])
         self._pending: list[NDArray[np.float64]] | None = None
         self.es = cma.CMAEvolutionStrategy(np.zeros(6).tolist(), c.sigma0, {
-            "popsize": c.popsize, "bounds": [-c.radius, c.radius], "maxfevals": c.maxfevals, "tolx": c.tolx,
-            "tolfun": c.tolfun, "seed": math.nan, "randn": self._randn,
+            "popsize": c.popsize, "bounds": [-c.radius, c.radius], "maxfevals": c.maxfevals,
+            "tolx": c.tolx, "tolfun": c.tolfun, "seed": math.nan, "randn": self._randn,
             "verbose": -9, "verb_log": 0, "verb_disp": 0})
 
     def _randn(self, *shape: int) -> NDArray[np.float64]:
