@@ -83,3 +83,29 @@ def test_pyramid_search_finds_a_grey_garment() -> None:
     assert abs(T[2, 3] - T_true[2, 3]) < 10.0
     dtheta = np.degrees(in_plane_angle_rad(T[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
     assert abs(dtheta) < 1.0
+
+
+def test_the_model_blur_stays_on_the_garment() -> None:
+    """A heavy camera blur mixes the garment's own colours, not the model station's backdrop."""
+    model = _case("No.6")[0]
+    sharp = model_samples(model, level_spacing(0, optics_blur_mm=0.0))
+    blurred = model_samples(model, level_spacing(0, optics_blur_mm=2.8))
+    assert blurred.p_in is sharp.p_in  # one geometry for every blur
+    # The grey sock stays grey at its inner ring: the green backdrop would pull a to < 0.
+    ring = slice(0, 200)
+    np.testing.assert_allclose(blurred.f_in[ring, 1:].mean(axis=0),
+                               sharp.f_in[ring, 1:].mean(axis=0), atol=0.02)
+
+
+def test_pyramid_search_estimates_the_camera_blur() -> None:
+    model, rig, right, left, T_true, _ = _case("No.1", "blur")   # 1.8 px = 1.55 mm
+    features = StereoFeatures(rig, right, left)
+    result = pyramid_search(
+        lambda lv, w, b: SoftFitness(model, features, lv, palette_weight=w, optics_blur_mm=b),
+        SearchSpace.from_ranges(), rng=0)
+    assert 1.0 <= result.optics_blur_mm <= 2.0, result.optics_blur_mm
+    T = pose_vectors_to_matrices(result.x)[0]
+    assert np.linalg.norm(T[:3, 3] - T_true[:3, 3]) < 2.0
+    # With the in-focus model the same pose scores far lower: the blur is what made it fit.
+    in_focus = SoftFitness(model, features, 0, optics_blur_mm=0.5)(result.x[None])[0]
+    assert result.fitness > in_focus + 0.15, (result.fitness, in_focus)

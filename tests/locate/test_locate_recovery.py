@@ -110,3 +110,20 @@ def test_distortion_from_filestorage_calibration_is_honoured(tmp_path, plaid_cas
     # Ignoring the distortion costs several mm of depth even where the fit still holds.
     assert nz >= 3.0 * ez + 3.0 or nxy >= XY_TOL_MM or nth >= THETA_TOL_DEG, (ez, nxy, nz, nth)
     assert good.score > naive.score
+
+
+def test_locate_searches_again_while_the_score_is_below_the_threshold(plaid_case) -> None:
+    scene = random_stereo_scene(plaid_case.garment, plaid_case.rig, rng=1000)
+    once = locate(plaid_case.built.model, plaid_case.rig, scene.right_bgr, scene.left_bgr, rng=0)
+    assert once.found and "searches" not in once.search.stop_reason   # found: no second search
+    blank = np.full_like(scene.right_bgr, 128)                         # nothing on the table
+    from photomodel.fitness import StereoFeatures
+    from photomodel.locate import locate_in_features
+
+    features = StereoFeatures(plaid_case.rig, blank, blank)
+    twice = locate_in_features(plaid_case.built.model, features, rng=0)
+    assert not twice.found and twice.search.stop_reason.startswith("best of 2 searches")
+    single = locate_in_features(plaid_case.built.model, features, rng=0, retries=0)
+    assert twice.search.evaluations > single.search.evaluations
+    with pytest.raises(ValueError, match="retries"):
+        locate_in_features(plaid_case.built.model, features, retries=-1)
