@@ -116,6 +116,7 @@ def test_locate_searches_again_while_the_score_is_below_the_threshold(plaid_case
     scene = random_stereo_scene(plaid_case.garment, plaid_case.rig, rng=1000)
     once = locate(plaid_case.built.model, plaid_case.rig, scene.right_bgr, scene.left_bgr, rng=0)
     assert once.found and "searches" not in once.search.stop_reason   # found: no second search
+    assert 0.0 <= once.to_json_dict()["optics_blur_mm"] <= 1.0         # rendered in focus
     blank = np.full_like(scene.right_bgr, 128)                         # nothing on the table
     from photomodel.fitness import StereoFeatures
     from photomodel.locate import locate_in_features

@@ -80,6 +80,14 @@ class LocateResult:
         """In-plane angle of the model x axis about camera 1's z axis, degrees."""
         return float(np.rad2deg(in_plane_angle_rad(self.T_cam1_model[:3, :3])))
 
+    @property
+    def optics_blur_mm(self) -> float | None:
+        """The camera blur the ``soft`` search estimated (Gaussian sigma, mm on the garment;
+        about 0.86 mm per pixel at the working distance), None for the other fitnesses. A
+        camera in focus gives about 0.5; much more says focus, motion or a dirty lens."""
+        blur = getattr(self.search, "optics_blur_mm", None)
+        return None if blur is None else float(blur)
+
     def to_json_dict(self) -> dict[str, Any]:
         """The JSON object of DESIGN.md's ``locate --json`` contract (plus search details)."""
         return {
@@ -95,6 +103,7 @@ class LocateResult:
             "evaluations": self.search.evaluations,
             "generations": self.search.iterations,
             "stop_reason": self.search.stop_reason,
+            "optics_blur_mm": self.optics_blur_mm,
         }
 
 

@@ -62,6 +62,24 @@ def describe_cma_stop(stop: dict[str, Any]) -> str:
     return "; ".join(parts)
 
 
+def tell_strategy(es: cma.CMAEvolutionStrategy, pending: list[NDArray[np.float64]] | None,
+                  tracker: _Tracker, x: NDArray[np.float64], fitness: NDArray[np.float64]
+                  ) -> None:
+    """Give ``es`` the fitness of the points it asked for (``pending``) and ``tracker`` the
+    poses ``x``: ``cma`` minimises ``-fitness``, a non-finite fitness counts worse than every
+    finite one of the batch."""
+    if pending is None:
+        raise ValueError("tell: call ask first (no points are waiting for their fitness)")
+    f = np.asarray(fitness, dtype=np.float64).reshape(-1)
+    if len(f) != len(pending):
+        raise ValueError(f"tell: expected {len(pending)} fitness values, got {len(f)}")
+    finite = np.isfinite(f)
+    f = np.where(finite, f, -np.inf)
+    tracker.update(x, f)
+    worst = float(np.min(f[finite])) if finite.any() else 0.0
+    es.tell(pending, (-np.where(finite, f, worst - 1.0 - abs(worst))).tolist())
+
+
 @dataclass(frozen=True)
 class CMAConfig:
     """Settings of :class:`CMAES` (unit-cube coordinates; fitness as told).
@@ -167,17 +185,7 @@ class CMAES:
 
         ``x`` goes into the result; ``cma`` is told the points it was asked for.
         """
-        if self._pending is None:
-            raise ValueError("tell: call ask first (no points are waiting for their fitness)")
-        f = np.asarray(fitness, dtype=np.float64).reshape(-1)
-        if len(f) != len(self._pending):
-            raise ValueError(f"tell: expected {len(self._pending)} fitness values, got {len(f)}")
-        finite = np.isfinite(f)
-        f = np.where(finite, f, -np.inf)
-        self._tracker.update(x, f)
-        worst = float(np.min(f[finite])) if finite.any() else 0.0
-        loss = -np.where(finite, f, worst - 1.0 - abs(worst))
-        self.es.tell(self._pending, loss.tolist())
+        tell_strategy(self.es, self._pending, self._tracker, x, fitness)
         self._pending = None
         reason = self.es.stop()
         if reason:

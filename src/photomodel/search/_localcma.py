@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.search._base import SearchResult, _Tracker
-from photomodel.search._cmaes import describe_cma_stop
+from photomodel.search._cmaes import describe_cma_stop, tell_strategy
 from photomodel.search._refine import _from_ray, _to_ray
 from photomodel.search._space import SearchSpace
 
@@ -109,16 +109,7 @@ class LocalCMA:
 
     def tell(self, x: NDArray[np.float64], fitness: NDArray[np.float64]) -> None:
         """Fitness (popsize,) of the last ``ask``."""
-        if self._pending is None:
-            raise ValueError("tell: call ask first (no points are waiting for their fitness)")
-        f = np.asarray(fitness, dtype=np.float64).reshape(-1)
-        if len(f) != len(self._pending):
-            raise ValueError(f"tell: expected {len(self._pending)} fitness values, got {len(f)}")
-        finite = np.isfinite(f)
-        f = np.where(finite, f, -np.inf)
-        self._tracker.update(x, f)
-        worst = float(np.min(f[finite])) if finite.any() else 0.0
-        self.es.tell(self._pending, (-np.where(finite, f, worst - 1.0 - abs(worst))).tolist())
+        tell_strategy(self.es, self._pending, self._tracker, x, fitness)
         self._pending = None
 
     def stop(self) -> str | None:
