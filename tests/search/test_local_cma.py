@@ -71,10 +71,11 @@ def test_the_blur_changes_only_when_a_candidate_fits_clearly_better() -> None:
     config = PyramidConfig(optics_blur_candidates_mm=(0.0, 0.5, 1.4, 2.8))
     x = TARGET
     sharp = {0.0: 0.30, 0.5: 0.31, 1.4: 0.62, 2.8: 0.50}     # a print in a blurred scene
-    blur, fit = _sharpest_fit(_fitness_at(sharp), 0, x, config, 0.5)
-    assert blur == 1.4 and fit(x[None])[0] == 0.62
+    blur, fit, f0, used = _sharpest_fit(_fitness_at(sharp), 0, x, config, 0.5)
+    assert blur == 1.4 and fit(x[None])[0] == 0.62 and f0 == 0.62
+    assert used == 4  # the current blur is one of the candidates: evaluated once
     flat = {0.0: 0.905, 0.5: 0.90, 1.4: 0.91, 2.8: 0.915}    # a plain garment: noise only
-    blur, fit = _sharpest_fit(_fitness_at(flat), 0, x, config, 0.5)
-    assert blur == 0.5 and fit(x[None])[0] == 0.90
+    blur, fit, f0, _ = _sharpest_fit(_fitness_at(flat), 0, x, config, 0.5)
+    assert blur == 0.5 and fit(x[None])[0] == 0.90 and f0 == 0.90
     none = PyramidConfig(optics_blur_candidates_mm=())
     assert _sharpest_fit(_fitness_at(sharp), 0, x, none, 2.8)[0] == 2.8

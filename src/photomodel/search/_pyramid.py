@@ -27,7 +27,7 @@ Each level's fitness is cheap in proportion to its samples (about 4x fewer per l
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -131,15 +131,15 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     x = best.x
     evaluations = 0
     for level in range(c.coarse_level - 2, -1, -1):
-        blur, objective = _sharpest_fit(fitness_at, level, x, c, blur)
-        evaluations += len(c.optics_blur_candidates_mm) + 1
-        stages.append(_local_at(objective, level, x, space, c.local, gen))
+        blur, objective, f0, used = _sharpest_fit(fitness_at, level, x, c, blur)
+        evaluations += used
+        stages.append(_local_at(objective, f0, level, x, space, c.local, gen))
         x = stages[-1].x
-    again, objective = _sharpest_fit(fitness_at, 0, x, c, blur)
-    evaluations += len(c.optics_blur_candidates_mm) + 1
+    again, objective, f0, used = _sharpest_fit(fitness_at, 0, x, c, blur)
+    evaluations += used
     if again != blur:
         blur = again
-        stages.append(_local_at(objective, 0, x, space, c.local, gen))
+        stages.append(_local_at(objective, f0, 0, x, space, c.local, gen))
     last = stages[-1]
     return PyramidResult(
         last.x, last.fitness, evaluations + sum(r.evaluations for r in stages),
@@ -149,39 +149,39 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
 
 
 def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
-                  config: PyramidConfig, blur_mm: float) -> tuple[float, Fitness]:
-    """The camera blur for ``level`` at ``x``, and that level's fitness with it.
+                  config: PyramidConfig, blur_mm: float
+                  ) -> tuple[float, Fitness, float, int]:
+    """The camera blur for ``level`` at ``x``, that level's fitness with it, the fitness at
+    ``x`` and the evaluations spent.
 
     The candidate with the highest fitness, when it beats ``blur_mm`` (the current one) by
     ``config.optics_blur_margin``; else ``blur_mm``. A plain garment looks the same at every
-    blur (its fitness curve is flat to +-0.01), and its noise must not choose one.
+    blur (its fitness curve is flat to +-0.01), and its noise must not choose one. Each blur
+    is evaluated once, the current one among the candidates included.
     """
-    current = fitness_at(level, 0.0, blur_mm)
-    if not config.optics_blur_candidates_mm:
-        return blur_mm, current
-    f_current = float(current(x[None])[0])
-    fits = [(b, fitness_at(level, 0.0, b)) for b in config.optics_blur_candidates_mm]
-    values = [float(f(x[None])[0]) for _, f in fits]
-    k = int(np.argmax(values))
-    return fits[k] if values[k] > f_current + config.optics_blur_margin else (blur_mm, current)
+    fits = {b: fitness_at(level, 0.0, b) for b in (blur_mm, *config.optics_blur_candidates_mm)}
+    values = {b: float(f(x[None])[0]) for b, f in fits.items()}
+    chosen = blur_mm
+    if config.optics_blur_candidates_mm:
+        best = max(config.optics_blur_candidates_mm, key=values.__getitem__)
+        if values[best] > values[blur_mm] + config.optics_blur_margin:
+            chosen = best
+    return chosen, fits[chosen], values[chosen], len(values)
 
 
 def _refine_at(objective: Fitness, level: int, x: NDArray[np.float64], space: SearchSpace,
                refine: RefineConfig, gen: np.random.Generator) -> SearchResult:
     """:class:`LocalRefine` of ``objective`` (pyramid ``level``) from ``x``, steps scaled by
     2**level."""
-    s = 2.0**level
-    cfg = replace(refine, lateral_step=refine.lateral_step * s,
-                  depth_step_mm=refine.depth_step_mm * s, eps_step=refine.eps_step * s)
     f0 = float(objective(x[None])[0])
-    return run_search(LocalRefine(space, x, f0, cfg, gen), objective)
+    return run_search(LocalRefine(space, x, f0, refine.scaled(2.0**level), gen), objective)
 
 
-def _local_at(objective: Fitness, level: int, x: NDArray[np.float64], space: SearchSpace,
-              local: LocalCMAConfig, gen: np.random.Generator) -> SearchResult:
-    """:class:`LocalCMA` of ``objective`` (pyramid ``level``) from ``x``, steps scaled by
-    2**level."""
-    f0 = float(objective(x[None])[0])
+def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
+              space: SearchSpace, local: LocalCMAConfig, gen: np.random.Generator
+              ) -> SearchResult:
+    """:class:`LocalCMA` of ``objective`` (pyramid ``level``, ``f0`` at ``x``) from ``x``,
+    steps scaled by 2**level."""
     return run_search(LocalCMA(space, x, f0, local.scaled(2.0**level), gen), objective)
 
 

@@ -12,7 +12,7 @@ search stops when they fall below ``min_step_fraction`` of their start or after
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +45,12 @@ class RefineConfig:
             raise ValueError("population and max_iterations must be >= 1")
         if not (0 < self.shrink < 1 <= self.grow) or not 0 < self.min_step_fraction < 1:
             raise ValueError("expected 0 < shrink < 1 <= grow and 0 < min_step_fraction < 1")
+
+    def scaled(self, factor: float) -> RefineConfig:
+        """The start steps multiplied by ``factor`` (a pyramid level 2**k coarser)."""
+        return replace(self, lateral_step=self.lateral_step * factor,
+                       depth_step_mm=self.depth_step_mm * factor,
+                       eps_step=self.eps_step * factor)
 
 
 def _to_ray(x: NDArray[np.float64]) -> NDArray[np.float64]:
