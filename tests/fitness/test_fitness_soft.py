@@ -109,3 +109,71 @@ def test_pyramid_search_estimates_the_camera_blur() -> None:
     # With the in-focus model the same pose scores far lower: the blur is what made it fit.
     in_focus = SoftFitness(model, features, 0, optics_blur_mm=0.5)(result.x[None])[0]
     assert result.fitness > in_focus + 0.15, (result.fitness, in_focus)
+
+
+def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
+    """Per-camera terms (2, 6) of one pose, written out in numpy from the module docstring."""
+    s, feats = fitness.samples, fitness.features
+    m = feats.match
+    iv_l, iv_c, wb = 1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2, m.wb_weight
+    scale = 0.5**fitness.level
+    uv_in = feats.rig.project_poses(T, s.p_in)
+    uv_out = feats.rig.project_poses(T, s.p_out)
+    terms = np.zeros((2, 6))
+
+    def sample(img: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        h, w = img.shape[:2]
+        u, v = uv[:, 0] * scale, uv[:, 1] * scale
+        ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
+        iu = np.minimum(np.floor(np.where(ok, u, 0)).astype(int), w - 2)
+        iv = np.minimum(np.floor(np.where(ok, v, 0)).astype(int), h - 2)
+        fu, fv = (np.where(ok, u, 0) - iu)[:, None], (np.where(ok, v, 0) - iv)[:, None]
+        top = img[iv, iu] * (1 - fu) + img[iv, iu + 1] * fu
+        bottom = img[iv + 1, iu] * (1 - fu) + img[iv + 1, iu + 1] * fu
+        return top * (1 - fv) + bottom * fv, ok
+
+    def agree(d: np.ndarray, o: np.ndarray) -> np.ndarray:
+        e = d - o
+        return np.exp(-0.5 * (e[:, 0] ** 2 * iv_l + (e[:, 1] ** 2 + e[:, 2] ** 2) * iv_c))
+
+    def with_palette(a: np.ndarray, x: np.ndarray, o: np.ndarray) -> np.ndarray:
+        for colour in fitness.palette:
+            a = np.maximum(a, fitness.palette_weight * agree(x - colour, o))
+        return a
+
+    for cam in range(2):
+        img = feats.pyramids[cam][fitness.level].astype(np.float64)
+        x_in, ok = sample(img, uv_in[cam])
+        d = (x_in - s.f_in)[ok]
+        ridge = 2.0 * wb * len(s.p_in) / iv_c
+        ends = []
+        for start in (d.mean(axis=0), np.zeros(3)):
+            o = start.copy()
+            for _ in range(3):
+                a = agree(d, o)
+                o = np.array([a @ d[:, 0] / a.sum(), a @ d[:, 1] / (a.sum() + ridge),
+                              a @ d[:, 2] / (a.sum() + ridge)])
+            ends.append((agree(d, o).sum() / len(s.p_in) - wb * (o[1] ** 2 + o[2] ** 2), o))
+        o = max(ends, key=lambda e: e[0])[1]
+        s_in = with_palette(agree(d, o), x_in[ok], o).sum() / len(s.p_in)
+        x_out, ok_out = sample(img, uv_out[cam])
+        a_out = np.where(ok_out, with_palette(agree(x_out - s.f_out, o), x_out, o), 1.0)
+        s_out = a_out.mean()
+        terms[cam] = (s_in - s_out - wb * (o[1] ** 2 + o[2] ** 2), s_in, s_out, *o)
+    return terms
+
+
+@pytest.mark.parametrize(("level", "palette_weight"), [(0, 0.0), (2, 0.0), (3, 0.5)])
+def test_kernel_matches_a_numpy_reference(level: int, palette_weight: float) -> None:
+    """The numba kernel computes what the module docstring says, pose by pose."""
+    model, rig, right, left, T_true, _ = _case("No.5", "gripper")
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level,
+                          palette_weight=palette_weight)
+    rng = np.random.default_rng(3)
+    poses = np.repeat(T_true[None], 4, axis=0)
+    poses[1:, :3, 3] += rng.normal(0.0, 6.0, (3, 3))
+    f = fitness.evaluate_transforms(poses)
+    for k in range(len(poses)):
+        expected = _reference_terms(fitness, poses[k])
+        np.testing.assert_allclose(fitness.last_terms[k], expected, atol=1e-6)
+        assert f[k] == pytest.approx(expected[:, 0].mean(), abs=1e-6)

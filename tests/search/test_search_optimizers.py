@@ -44,6 +44,21 @@ def test_ga_is_seeded_and_finds_the_peak() -> None:
     assert np.all(np.diff(results[0].best_history) >= 0)
 
 
+def test_ga_min_improvement_ends_the_tail_of_small_gains() -> None:
+    """Rises below ``min_improvement`` do not reset the patience; the best is still kept."""
+    config = GAConfig(patience=10, restarts=0)
+    plain = run_search(BinaryGA(SPACE, config, rng=5), peaked)
+    coarse = run_search(BinaryGA(SPACE, GAConfig(patience=10, restarts=0, min_improvement=0.05),
+                                 rng=5), peaked)
+    assert coarse.iterations < plain.iterations
+    assert coarse.fitness <= plain.fitness
+    assert coarse.fitness == pytest.approx(max(coarse.best_history))
+    # the same generations up to the earlier stop: the threshold changes only when to stop
+    np.testing.assert_array_equal(coarse.best_history, plain.best_history[: coarse.iterations])
+    with pytest.raises(ValueError, match="min_improvement"):
+        GAConfig(min_improvement=-0.1)
+
+
 def test_paper_ga_has_sixty_individuals_of_72_bits() -> None:
     ga = BinaryGA(SPACE, GAConfig.paper(), rng=1)
     assert ga.ask().shape == (60, 6)

@@ -29,29 +29,41 @@ def _bilinear(img, u, v, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
+    """Squared colour distance of a feature difference (dl, da, db) after the offsets."""
+    el = dl - o[0]
+    ea = da - o[1]
+    eb = db - o[2]
+    return el * el * inv_var_l + (ea * ea + eb * eb) * inv_var_c
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _agreement(sample, colour, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
-    dl = sample[0] - colour[0] - o[0]
-    da = sample[1] - colour[1] - o[1]
-    db = sample[2] - colour[2] - o[2]
-    return np.exp(-0.5 * (dl * dl * inv_var_l + (da * da + db * db) * inv_var_c))
+    return np.exp(-0.5 * _distance2(sample[0] - colour[0], sample[1] - colour[1],
+                                    sample[2] - colour[2], o, inv_var_l, inv_var_c))
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
-    best = 0.0
+    """Agreement with the nearest palette colour: one exp of the smallest distance."""
+    best = np.inf
     for k in range(palette.shape[0]):
-        best = max(best, _agreement(sample, palette[k], o, inv_var_l, inv_var_c))
-    return best
+        best = min(best, _distance2(sample[0] - palette[k, 0], sample[1] - palette[k, 1],
+                                    sample[2] - palette[k, 2], o, inv_var_l, inv_var_c))
+    return np.exp(-0.5 * best)
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
-                  inv_var_l, inv_var_c, wb_weight, buf, valid, out):  # pragma: no cover - compiled
+                  inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out
+                  ):  # pragma: no cover - compiled
     """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
 
     With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
     as well as its best palette colour (garment anywhere), not only as well as its own
-    point's colour (this part of the garment).
+    point's colour (this part of the garment). ``buf`` and ``diff`` (N_in, 3) and ``valid``
+    (N_in,) are work space: the samples, their differences to the model's colours and
+    whether they fell inside the image.
     """
     use_palette = palette.shape[0] > 0
     n_in = p_in.shape[0]
@@ -69,7 +81,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
             n_valid += 1
             for c in range(3):
                 buf[j, c] = sample[c]
-                o[c] += sample[c] - f_in[j, c]
+                diff[j, c] = sample[c] - f_in[j, c]
+                o[c] += diff[j, c]
     if n_valid == 0:
         for k in range(6):
             out[k] = 0.0
@@ -78,9 +91,11 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
         o[c] /= n_valid
     # The offsets maximise mean agreement - chroma penalty (a mode, not the mean): occluders
     # and shadows disagree with the model and must not drag them. Fixed-point (mean-shift)
-    # ascent from the mean and from no offset; the better end point is kept.
+    # ascent from the mean and from no offset; the better end point is kept. The inner
+    # points' agreement sum at the kept offsets is S_in (without a palette).
     ridge = 2.0 * wb_weight * n_in / inv_var_c
     best_j = -1e300
+    best_sum = 0.0
     best_o = np.zeros(3)
     trial = np.empty(3)
     for start in range(2):
@@ -93,35 +108,39 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
             s2 = 0.0
             for j in range(n_in):
                 if valid[j]:
-                    a = _agreement(buf[j], f_in[j], trial, inv_var_l, inv_var_c)
+                    a = np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], trial,
+                                                 inv_var_l, inv_var_c))
                     sw += a
-                    s0 += a * (buf[j, 0] - f_in[j, 0])
-                    s1 += a * (buf[j, 1] - f_in[j, 1])
-                    s2 += a * (buf[j, 2] - f_in[j, 2])
+                    s0 += a * diff[j, 0]
+                    s1 += a * diff[j, 1]
+                    s2 += a * diff[j, 2]
             if sw < 1e-9:
                 break
             trial[0] = s0 / sw
             trial[1] = s1 / (sw + ridge)
             trial[2] = s2 / (sw + ridge)
-        j_val = 0.0
+        total = 0.0
         for j in range(n_in):
             if valid[j]:
-                j_val += _agreement(buf[j], f_in[j], trial, inv_var_l, inv_var_c)
-        j_val = j_val / n_in - wb_weight * (trial[1] * trial[1] + trial[2] * trial[2])
+                total += np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], trial,
+                                                  inv_var_l, inv_var_c))
+        j_val = total / n_in - wb_weight * (trial[1] * trial[1] + trial[2] * trial[2])
         if j_val > best_j:
             best_j = j_val
+            best_sum = total
             for c in range(3):
                 best_o[c] = trial[c]
     for c in range(3):
         o[c] = best_o[c]
-    s_in = 0.0
-    for j in range(n_in):
-        if valid[j]:
-            a = _agreement(buf[j], f_in[j], o, inv_var_l, inv_var_c)
-            if use_palette:
-                a = max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
-                                                            inv_var_c))
-            s_in += a
+    s_in = best_sum
+    if use_palette:
+        s_in = 0.0
+        for j in range(n_in):
+            if valid[j]:
+                a = np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+                                             inv_var_l, inv_var_c))
+                s_in += max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
+                                                                inv_var_c))
     s_out = 0.0
     for j in range(p_out.shape[0]):
         X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
@@ -160,9 +179,10 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         t1 = ts[p]
         R2, t2 = camera2_pose(R1, t1, R21, T21)
         buf = np.empty((n_in, 3))
+        diff = np.empty((n_in, 3))
         valid = np.empty(n_in, dtype=np.bool_)
         _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img1, inv_var_l, inv_var_c, wb_weight, buf, valid, out_terms[p, 0])
+                      img1, inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out_terms[p, 0])
         _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img2, inv_var_l, inv_var_c, wb_weight, buf, valid, out_terms[p, 1])
+                      img2, inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out_terms[p, 1])
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])

@@ -241,7 +241,8 @@ def locate_in_features(
         ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
         from it.
     retries : int
-        Searches again (continuing the random stream) while the best score stays below
+        Searches again (continuing the random stream, with more GA restarts:
+        :meth:`~photomodel.search.PyramidConfig.for_retry`) while the best score stays below
         ``min_score``, at most this many times, and keeps the best: the global stage misses
         the garment now and then, rarely twice. A scene without the garment costs
         ``1 + retries`` searches.
@@ -250,7 +251,7 @@ def locate_in_features(
     -------
     LocateResult
     """
-    from photomodel.search import pyramid_search
+    from photomodel.search import PyramidConfig, pyramid_search
 
     t0 = time.perf_counter() if t0 is None else t0
     if retries < 0:
@@ -261,11 +262,12 @@ def locate_in_features(
     space = space or SearchSpace.from_ranges()
     best: SearchResult | None = None
     searches = evaluations = 0
+    config = PyramidConfig()
     while searches <= retries and (best is None or best.fitness < min_score):
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
-            space, rng=gen)
+            space, config if searches == 0 else config.for_retry(), rng=gen)
         searches += 1
         evaluations += attempt.evaluations
         if best is None or attempt.fitness > best.fitness:

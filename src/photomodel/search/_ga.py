@@ -22,8 +22,8 @@ One generation, the operators the paper leaves open:
   in the result, not in the population, which would pull the new one back to the same peak
   within a few generations). The plaid fabrics' repeating pattern makes local peaks one
   pattern repeat away from the true pose; independent restarts escape them.
-* **Stop**: after ``max_generations`` or when the best fitness has not improved for
-  ``patience`` generations and no restart is left.
+* **Stop**: after ``max_generations`` or when the best fitness has not improved (by more
+  than ``min_improvement``) for ``patience`` generations and no restart is left.
 """
 
 from __future__ import annotations
@@ -60,6 +60,10 @@ class GAConfig:
     max_generations: int = 800
     patience: int = 60
     restarts: int = 4
+    min_improvement: float = 0.0
+    """A generation counts as an improvement (for ``patience``) only when it raises the best
+    fitness by more than this; 0 = any rise. A coarse stage whose result is refined anyway
+    need not spend generations on the last thousandths."""
     gray: bool = True
 
     @classmethod
@@ -80,6 +84,8 @@ class GAConfig:
                 raise ValueError(f"{key}: expected a probability, got {getattr(self, key)}")
         if self.max_generations < 1 or self.patience < 1 or self.restarts < 0:
             raise ValueError("max_generations and patience must be >= 1, restarts >= 0")
+        if not self.min_improvement >= 0:
+            raise ValueError(f"min_improvement: expected >= 0, got {self.min_improvement}")
 
 
 class BinaryGA:
@@ -130,7 +136,9 @@ class BinaryGA:
         if len(f) != c.population:
             raise ValueError(f"tell: expected {c.population} fitness values, got {len(f)}")
         f = np.where(np.isfinite(f), f, -np.inf)
-        improved = self._tracker.update(x, f)
+        previous = self._tracker.best_f
+        self._tracker.update(x, f)
+        improved = bool(np.max(f) > previous + c.min_improvement)
         i_best = int(np.argmax(f))
         if f[i_best] > self._epoch_best[0]:
             self._epoch_best = (float(f[i_best]), np.array(x[i_best], dtype=np.float64))
