@@ -54,13 +54,14 @@ class PyramidConfig:
     ga : GAConfig
         The global stage's GA. It stops a run after 20 generations without a rise of 0.003:
         level 2 refines its result anyway (measured on 96 hard scenes, 12 garments x 8
-        conditions: 22 % fewer evaluations than any rise counting, the same successes).
+        conditions: 23 % fewer evaluations than any rise counting, the same successes).
     refine : RefineConfig
         The hypotheses' refinement (level 0 steps; level k uses steps 2**k times larger).
     local : LocalCMAConfig
         The finer levels' refinement (level 0 steps, scaled the same way). It starts with
         0.6 steps and stops below 0.08: the previous level's best is that close (on the 96
-        scenes: 12 % less time than 1 and 0.05, the same median errors).
+        scenes: 2 % fewer evaluations and 12 % less time than 1 and 0.05, the same median
+        errors).
     retry_restarts : int
         GA restarts of a second search (:meth:`for_retry`), when the first one's score says
         it missed: more independent runs at the price of a slower answer in those scenes.
