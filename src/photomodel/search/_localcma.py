@@ -16,22 +16,22 @@ generator (``randn``), never reseeding numpy's global one.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import cma
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel.search._base import SearchResult, _Tracker
+from photomodel.search._base import SearchResult
 from photomodel.search._cmaes import describe_cma_stop, tell_strategy
-from photomodel.search._refine import _from_ray, _to_ray
+from photomodel.search._refine import RaySteps, _from_ray, _to_ray, start_tracker
 from photomodel.search._space import SearchSpace
 
 __all__ = ["LocalCMA", "LocalCMAConfig"]
 
 
 @dataclass(frozen=True)
-class LocalCMAConfig:
+class LocalCMAConfig(RaySteps):
     """Settings of :class:`LocalCMA`.
 
     The start steps are those of :class:`~photomodel.search.RefineConfig` (1 mm sideways at
@@ -41,9 +41,6 @@ class LocalCMAConfig:
     """
 
     popsize: int = 16
-    lateral_step: float = 0.0015
-    depth_step_mm: float = 4.0
-    eps_step: float = 0.005
     sigma0: float = 1.0
     radius: float = 4.0
     tolx: float = 0.05
@@ -56,12 +53,6 @@ class LocalCMAConfig:
         if not (self.sigma0 > 0 and self.tolx > 0 and self.tolfun >= 0
                 and self.radius > self.sigma0):
             raise ValueError("expected sigma0 > 0, tolx > 0, tolfun >= 0, radius > sigma0")
-
-    def scaled(self, factor: float) -> LocalCMAConfig:
-        """The start steps multiplied by ``factor`` (a pyramid level 2**k coarser)."""
-        return replace(self, lateral_step=self.lateral_step * factor,
-                       depth_step_mm=self.depth_step_mm * factor,
-                       eps_step=self.eps_step * factor)
 
 
 class LocalCMA:
@@ -85,12 +76,9 @@ class LocalCMA:
         self.space = space
         self.config = c = config or LocalCMAConfig()
         self.rng = np.random.default_rng(rng)
-        self._tracker = _Tracker()
-        self._tracker.best_x = space.clip(np.asarray(x0, dtype=np.float64).reshape(6))
-        self._tracker.best_f = float(f0)
+        self._tracker = start_tracker(space, x0, f0)
         self._centre = _to_ray(self._tracker.best_x)
-        self._step = np.array([c.lateral_step, c.lateral_step, c.depth_step_mm,
-                               c.eps_step, c.eps_step, c.eps_step])
+        self._step = c.steps
         self._pending: list[NDArray[np.float64]] | None = None
         self.es = cma.CMAEvolutionStrategy(np.zeros(6).tolist(), c.sigma0, {
             "popsize": c.popsize, "bounds": [-c.radius, c.radius], "maxfevals": c.maxfevals,

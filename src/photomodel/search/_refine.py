@@ -13,6 +13,7 @@ search stops when they fall below ``min_step_fraction`` of their start or after
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Self
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,17 +25,44 @@ __all__ = ["GlobalThenLocal", "LocalRefine", "RefineConfig"]
 
 
 @dataclass(frozen=True)
-class RefineConfig:
-    """Settings of :class:`LocalRefine`.
+class RaySteps:
+    """Start steps in ray coordinates (x/z, y/z, z, eps1, eps2, eps3) of a local search.
 
-    Initial steps: 1 mm sideways at 685 mm (``lateral = 0.0015`` in x/z and y/z), 4 mm in depth
-    and 0.005 in eps (about 0.6 deg): the size of the errors a converged GA leaves.
+    Defaults: 1 mm sideways at 685 mm (``lateral_step = 0.0015`` in x/z and y/z), 4 mm in
+    depth and 0.005 in eps (about 0.6 deg): the size of the errors a converged GA leaves.
     """
 
-    population: int = 60
     lateral_step: float = 0.0015
     depth_step_mm: float = 4.0
     eps_step: float = 0.005
+
+    @property
+    def steps(self) -> NDArray[np.float64]:
+        """The six start steps (6,), in ray coordinates."""
+        return np.array([self.lateral_step, self.lateral_step, self.depth_step_mm,
+                         self.eps_step, self.eps_step, self.eps_step])
+
+    def scaled(self, factor: float) -> Self:
+        """The start steps multiplied by ``factor`` (a pyramid level 2**k coarser)."""
+        return replace(self, lateral_step=self.lateral_step * factor,
+                       depth_step_mm=self.depth_step_mm * factor,
+                       eps_step=self.eps_step * factor)
+
+
+def start_tracker(space: SearchSpace, x0: NDArray[np.float64], f0: float) -> _Tracker:
+    """A best-so-far tracker that starts at ``x0`` (clipped into ``space``) with ``f0``: a
+    local search never returns worse than its start."""
+    tracker = _Tracker()
+    tracker.best_x = space.clip(np.asarray(x0, dtype=np.float64).reshape(6))
+    tracker.best_f = float(f0)
+    return tracker
+
+
+@dataclass(frozen=True)
+class RefineConfig(RaySteps):
+    """Settings of :class:`LocalRefine`; the start steps are :class:`RaySteps`'."""
+
+    population: int = 60
     grow: float = 1.3
     shrink: float = 0.7
     min_step_fraction: float = 0.03
@@ -45,12 +73,6 @@ class RefineConfig:
             raise ValueError("population and max_iterations must be >= 1")
         if not (0 < self.shrink < 1 <= self.grow) or not 0 < self.min_step_fraction < 1:
             raise ValueError("expected 0 < shrink < 1 <= grow and 0 < min_step_fraction < 1")
-
-    def scaled(self, factor: float) -> RefineConfig:
-        """The start steps multiplied by ``factor`` (a pyramid level 2**k coarser)."""
-        return replace(self, lateral_step=self.lateral_step * factor,
-                       depth_step_mm=self.depth_step_mm * factor,
-                       eps_step=self.eps_step * factor)
 
 
 def _to_ray(x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -76,11 +98,8 @@ class LocalRefine:
         self.space = space
         self.config = c = config or RefineConfig()
         self.rng = np.random.default_rng(rng)
-        self._tracker = _Tracker()
-        self._tracker.best_x = space.clip(np.asarray(x0, dtype=np.float64).reshape(6))
-        self._tracker.best_f = float(f0)
-        self._step0 = np.array([c.lateral_step, c.lateral_step, c.depth_step_mm,
-                                c.eps_step, c.eps_step, c.eps_step])
+        self._tracker = start_tracker(space, x0, f0)
+        self._step0 = c.steps
         self.step = self._step0.copy()
         self.iteration = 0
 
