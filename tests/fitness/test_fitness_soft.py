@@ -13,7 +13,13 @@ from photomodel.fitness import SoftFitness, StereoFeatures, model_samples
 from photomodel.fitness._soft import level_spacing
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
 from photomodel.image._features import log_opponent
-from photomodel.search import SearchSpace, pyramid_search
+from photomodel.search import (
+    LocalRefine,
+    PyramidConfig,
+    SearchSpace,
+    pyramid_search,
+    run_search,
+)
 
 
 @lru_cache(maxsize=16)
@@ -83,6 +89,33 @@ def test_pyramid_search_finds_a_grey_garment() -> None:
     assert abs(T[2, 3] - T_true[2, 3]) < 10.0
     dtheta = np.degrees(in_plane_angle_rad(T[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
     assert abs(dtheta) < 1.0
+
+
+def test_coarse_own_colours_walk_in_to_a_print() -> None:
+    """From where the palette GA leaves a dotted skirt (tens of mm and about 5 deg off),
+    level 2's own colours settle a dot or so away; level 3's own colours first walk in
+    (``PyramidConfig.coarse_own_colours``)."""
+    model, rig, right, left, T_true, _ = _case("No.5")
+    features = StereoFeatures(rig, right, left)
+    x_true = _vector(T_true)
+    space = SearchSpace.from_ranges()
+    config = PyramidConfig().refine
+
+    def refine(level: int, x0: np.ndarray, seed: int) -> np.ndarray:
+        f = SoftFitness(model, features, level)
+        opt = LocalRefine(space, x0, f(x0[None])[0], config.scaled(2.0**level), seed)
+        return run_search(opt, f).x
+
+    direct = coarse_first = 0
+    for dx, dy, dtheta in [(30, 20, 5), (-25, 30, -5), (40, 0, 4), (0, -35, -5), (20, 20, 0)]:
+        x0 = x_true.copy()
+        x0[:2] += (dx, dy)
+        x0[5] = np.sin(np.arcsin(x_true[5]) + np.deg2rad(dtheta) / 2)
+        for seed in (0, 1):
+            direct += np.linalg.norm(refine(2, x0, seed)[:2] - x_true[:2]) < 3.0
+            walked = refine(2, refine(3, x0, seed), seed)
+            coarse_first += np.linalg.norm(walked[:2] - x_true[:2]) < 3.0
+    assert coarse_first >= 7 and direct <= 2, (coarse_first, direct)
 
 
 def test_the_model_blur_stays_on_the_garment() -> None:

@@ -4,7 +4,8 @@
    Gray-coded binary GA with restarts on the ``soft`` fitness with the garment's palette
    (``palette_weight``), whose peaks are as wide as the garment, not as a print's repeat.
 2. **Hypotheses**: the best pose of every GA restart (and the overall best) is refined on
-   the next level with the garment's own colours; the best of them goes on. The palette
+   the coarse level with the garment's own colours (``coarse_own_colours``), then on the
+   next level; the best of them goes on. The palette
    fitness can rank a wrong peak first (a print colour close to the table's), the finer
    level with own colours rarely does.
    Each hypothesis is refined by the ray-coordinate evolution strategy of
@@ -65,6 +66,15 @@ class PyramidConfig:
     retry_restarts : int
         GA restarts of a second search (:meth:`for_retry`), when the first one's score says
         it missed: more independent runs at the price of a slower answer in those scenes.
+    coarse_own_colours : bool
+        Refine each hypothesis on the coarse level with the garment's own colours before
+        the next level. The palette's peak is as wide as the garment and its top is flat:
+        the GA's best lies 25-50 mm and about 5 deg from the garment, and from there the next
+        level's own colours, whose peaks are as narrow as a print's repeat, settle on the
+        print one dot or stripe away (a pose 20 mm off with a score of 0.64-0.68 against the
+        true pose's 0.78-0.87). The coarse level's own colours blur the print and keep the
+        garment's edge, so they walk in first (on 96 hard scenes: 87 against 82 successes,
+        6 % more evaluations).
     optics_blur_mm : float
         Camera blur of the global stage, mm on the garment.
     optics_blur_candidates_mm : tuple of float
@@ -80,6 +90,7 @@ class PyramidConfig:
     refine: RefineConfig = field(default_factory=lambda: RefineConfig(
         population=24, max_iterations=60, min_step_fraction=0.1))
     local: LocalCMAConfig = field(default_factory=lambda: LocalCMAConfig(sigma0=0.6, tolx=0.08))
+    coarse_own_colours: bool = True
     optics_blur_mm: float = 0.5
     optics_blur_candidates_mm: tuple[float, ...] = (0.0, 0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8)
     optics_blur_margin: float = 0.02
@@ -138,8 +149,14 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     stages = [run_search(ga, fitness_at(c.coarse_level, c.palette_weight, blur))]
     # Each restart's best is a hypothesis; the next level (own colours, finer samples) decides.
     level = c.coarse_level - 1
+    starts = _distinct([stages[0].x, *ga.hypotheses()], space)
+    if c.coarse_own_colours:
+        own = fitness_at(c.coarse_level, 0.0, blur)
+        coarse = [_refine_at(own, c.coarse_level, x0, space, c.refine, gen) for x0 in starts]
+        stages.extend(coarse)
+        starts = [r.x for r in coarse]
     candidates = [_refine_at(fitness_at(level, 0.0, blur), level, x0, space, c.refine, gen)
-                  for x0 in _distinct([stages[0].x, *ga.hypotheses()], space)]
+                  for x0 in starts]
     best = max(candidates, key=lambda r: r.fitness)
     stages.extend(candidates)
     x = best.x
