@@ -5,6 +5,7 @@ from photomodel.fitness._base import Fitness
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
+from photomodel.fitness._scan import ScanConfig, ScanResult, scan_flat_poses
 from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, level_spacing
 
 __all__ = [
@@ -15,6 +16,8 @@ __all__ = [
     "PaperFitness",
     "PaperVotes",
     "SampleSpacing",
+    "ScanConfig",
+    "ScanResult",
     "SoftFitness",
     "SoftMatch",
     "StereoFeatures",
@@ -24,4 +27,5 @@ __all__ = [
     "level_spacing",
     "make_fitness",
     "model_samples",
+    "scan_flat_poses",
 ]

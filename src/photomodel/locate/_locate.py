@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
-from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness
+from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness, scan_flat_poses
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
@@ -241,11 +241,13 @@ def locate_in_features(
         ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
         from it.
     retries : int
-        Searches again (continuing the random stream, with more GA restarts:
-        :meth:`~photomodel.search.PyramidConfig.for_retry`) while the best score stays below
-        ``min_score``, at most this many times, and keeps the best: the global stage misses
-        the garment now and then, rarely twice. A scene without the garment costs
-        ``1 + retries`` searches.
+        The first search starts from the peaks of
+        :func:`~photomodel.fitness.scan_flat_poses` and runs no GA. While the best score
+        stays below ``min_score``, it searches again, at most this many times, with the GA
+        beside the same peaks (continuing the random stream, with more restarts:
+        :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best. The scan
+        sees the garment as lit at the model station; a GA retry finds it under other light.
+        A scene without the garment costs ``1 + retries`` searches.
 
     Returns
     -------
@@ -263,11 +265,12 @@ def locate_in_features(
     best: SearchResult | None = None
     searches = evaluations = 0
     config = PyramidConfig()
+    seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
     while searches <= retries and (best is None or best.fitness < min_score):
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
-            space, config if searches == 0 else config.for_retry(), rng=gen)
+            space, config if searches == 0 else config.for_retry(), rng=gen, seeds=seeds)
         searches += 1
         evaluations += attempt.evaluations
         if best is None or attempt.fitness > best.fitness:

@@ -1,14 +1,16 @@
 """Coarse-to-fine pose search for the ``soft`` fitness over a feature pyramid.
 
 1. **Global** on the coarsest level, over (x, y, z, in-plane angle) with no tilt: the
-   Gray-coded binary GA with restarts on the ``soft`` fitness with the garment's palette
-   (``palette_weight``), whose peaks are as wide as the garment, not as a print's repeat.
-2. **Hypotheses**: the best pose of every GA restart (and the overall best) is refined on
-   the coarse level with the garment's own colours (``coarse_own_colours``), then on the
-   next level; the best of them goes on. The palette
-   fitness can rank a wrong peak first (a print colour close to the table's), the finer
-   level with own colours rarely does.
-   Each hypothesis is refined by the ray-coordinate evolution strategy of
+   ``seeds`` the caller found (``locate`` scans every pixel, angle and depth by correlation:
+   :func:`~photomodel.fitness.scan_flat_poses`), and, without seeds or with
+   ``ga_with_seeds`` (a retry), the Gray-coded binary GA with restarts on the ``soft``
+   fitness with the garment's palette (``palette_weight``), whose peaks are as wide as the
+   garment, not as a print's repeat.
+2. **Hypotheses**: every seed, the best pose of every GA restart and the overall best are
+   refined on the coarse level with the garment's own colours (``coarse_own_colours``),
+   then on the next level; the best of them goes on. The palette fitness can rank a wrong
+   peak first (a print colour close to the table's), the finer level with own colours
+   rarely does. Each hypothesis is refined by the ray-coordinate evolution strategy of
    :class:`~photomodel.search.LocalRefine`, whose growing steps walk in from tens of
    millimetres away.
 3. **Local** on each finer level down to level 0, over all six genes: CMA-ES in ray
@@ -27,7 +29,7 @@ Each level's fitness is cheap in proportion to its samples (about 4x fewer per l
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -81,6 +83,9 @@ class PyramidConfig:
         Camera blurs the local stages choose from (empty: keep ``optics_blur_mm``).
     optics_blur_margin : float
         Fitness by which a candidate blur must beat the current one to replace it.
+    ga_with_seeds : bool
+        Run the GA also when :func:`pyramid_search` is given seeds (else the seeds replace
+        it).
     """
 
     coarse_level: int = 3
@@ -95,10 +100,13 @@ class PyramidConfig:
     optics_blur_candidates_mm: tuple[float, ...] = (0.0, 0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8)
     optics_blur_margin: float = 0.02
     retry_restarts: int = 8
+    ga_with_seeds: bool = False
 
     def for_retry(self) -> PyramidConfig:
-        """These settings with ``retry_restarts`` GA restarts, for a search after a miss."""
-        return replace(self, ga=replace(self.ga, restarts=self.retry_restarts))
+        """These settings with ``retry_restarts`` GA restarts, run beside any seeds, for a
+        search after a miss."""
+        return replace(self, ga=replace(self.ga, restarts=self.retry_restarts),
+                       ga_with_seeds=True)
 
 
 @dataclass(frozen=True)
@@ -120,7 +128,8 @@ FitnessAt = Callable[[int, float, float], Fitness]
 
 
 def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidConfig | None = None,
-                   rng: int | np.random.Generator | None = None) -> PyramidResult:
+                   rng: int | np.random.Generator | None = None,
+                   seeds: Sequence[NDArray[np.float64]] = ()) -> PyramidResult:
     """Run the coarse-to-fine search.
 
     Parameters
@@ -132,6 +141,9 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
         Bounds of all stages; the global stage holds eps1 = eps2 = 0 (clipped into the box).
     config : PyramidConfig, optional
     rng : int, Generator or None
+    seeds : sequence of ndarray (6,)
+        Hypotheses found elsewhere (:func:`~photomodel.fitness.scan_flat_poses`). With
+        seeds the GA runs only when ``config.ga_with_seeds``; its hypotheses join them.
 
     Returns
     -------
@@ -140,16 +152,20 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     """
     c = config or PyramidConfig()
     gen = np.random.default_rng(rng)
-    lo, hi = space.lower.copy(), space.upper.copy()
-    flat = np.clip(0.0, lo[3:5], hi[3:5])
-    lo[3:5] = flat
-    hi[3:5] = flat
-    ga = BinaryGA(SearchSpace(lo, hi), c.ga, rng=gen)
     blur = c.optics_blur_mm
-    stages = [run_search(ga, fitness_at(c.coarse_level, c.palette_weight, blur))]
-    # Each restart's best is a hypothesis; the next level (own colours, finer samples) decides.
+    starts = [space.clip(np.asarray(x, dtype=np.float64).reshape(6)) for x in seeds]
+    stages: list[SearchResult] = []
+    if c.ga_with_seeds or not starts:
+        lo, hi = space.lower.copy(), space.upper.copy()
+        flat = np.clip(0.0, lo[3:5], hi[3:5])
+        lo[3:5] = flat
+        hi[3:5] = flat
+        ga = BinaryGA(SearchSpace(lo, hi), c.ga, rng=gen)
+        stages.append(run_search(ga, fitness_at(c.coarse_level, c.palette_weight, blur)))
+        # Each restart's best is a hypothesis; the next levels decide.
+        starts += [stages[0].x, *ga.hypotheses()]
     level = c.coarse_level - 1
-    starts = _distinct([stages[0].x, *ga.hypotheses()], space)
+    starts = _distinct(starts, space)
     if c.coarse_own_colours:
         own = fitness_at(c.coarse_level, 0.0, blur)
         coarse = [_refine_at(own, c.coarse_level, x0, space, c.refine, gen) for x0 in starts]
