@@ -61,6 +61,13 @@ class ScanConfig:
         than this (x/z and y/z; 0.04 is 27 mm at 685 mm).
     min_angle_separation_deg : float
         ... or when their angles differ by more than this.
+    trusted_score : float
+        Below this best score the peaks are not trusted alone (``locate`` runs its GA beside
+        them). The scan has no light offsets: under another lamp or exposure the garment's
+        own colours agree nowhere and the best peak is noise. Measured on trial 1 of the 12
+        garments: best scores 0.18-0.91 in paper light and on a wood table, 0.07-0.77 bright,
+        0.08-0.45 cool light; 0.00-0.06 dim and 0.00-0.03 under a warm lamp, where 6 of 12
+        best peaks missed the garment.
     """
 
     level: int = 3
@@ -69,11 +76,12 @@ class ScanConfig:
     hypotheses: int = 3
     min_separation: float = 0.04
     min_angle_separation_deg: float = 17.0
+    trusted_score: float = 0.065
 
     def __post_init__(self) -> None:
         if not (self.level >= 0 and self.theta_step_deg > 0 and self.z_step > 0
                 and self.hypotheses >= 1 and self.min_separation >= 0
-                and self.min_angle_separation_deg >= 0):
+                and self.min_angle_separation_deg >= 0 and self.trusted_score >= 0):
             raise ValueError(f"ScanConfig: expected positive steps and counts, got {self}")
 
 
@@ -90,11 +98,14 @@ class ScanResult:
         cameras averaged (the ``soft`` fitness without light offsets, at grid resolution).
     maps : int
         Angle-depth pairs scanned.
+    trusted : bool
+        Whether the best score reaches ``ScanConfig.trusted_score``.
     """
 
     poses: NDArray[np.float64]
     scores: NDArray[np.float64]
     maps: int
+    trusted: bool
 
 
 def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
@@ -279,4 +290,5 @@ def _distinct_peaks(peaks: list[tuple[float, float, float, int, int]],
         if len(poses) >= c.hypotheses:
             break
     vectors = np.array(poses).reshape(-1, 7)[:, :6]
-    return ScanResult(vectors, np.array(scores), maps)
+    trusted = bool(scores) and scores[0] >= c.trusted_score
+    return ScanResult(vectors, np.array(scores), maps, trusted)

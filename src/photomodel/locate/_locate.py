@@ -242,7 +242,8 @@ def locate_in_features(
         from it.
     retries : int
         The first search starts from the peaks of
-        :func:`~photomodel.fitness.scan_flat_poses` and runs no GA. While the best score
+        :func:`~photomodel.fitness.scan_flat_poses` and runs no GA unless the scan's best
+        score is too low to trust (``ScanConfig.trusted_score``). While the best score
         stays below ``min_score``, it searches again, at most this many times, with the GA
         beside the same peaks (continuing the random stream, with more restarts:
         :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best. The scan
@@ -265,12 +266,14 @@ def locate_in_features(
     best: SearchResult | None = None
     searches = evaluations = 0
     config = PyramidConfig()
-    seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
+    scan = scan_flat_poses(model, features, space.lower, space.upper)
+    if not scan.trusted:
+        config = replace(config, ga_with_seeds=True)
     while searches <= retries and (best is None or best.fitness < min_score):
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
-            space, config if searches == 0 else config.for_retry(), rng=gen, seeds=seeds)
+            space, config if searches == 0 else config.for_retry(), rng=gen, seeds=scan.poses)
         searches += 1
         evaluations += attempt.evaluations
         if best is None or attempt.fitness > best.fitness:
