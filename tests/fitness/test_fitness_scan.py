@@ -153,3 +153,21 @@ def test_the_scan_is_not_trusted_under_another_lamp() -> None:
         model, features, _ = _case("No.4", condition)
         result = scan_flat_poses(model, features, space.lower, space.upper)
         assert result.trusted is trusted, (condition, result.scores[0])
+
+
+def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
+    """``finest_level=1`` skips level 0's refinement, not its score (the threshold's scale)."""
+    model, features, T_true = _case("No.1")
+    space = SearchSpace.from_ranges()
+    levels: list[int] = []
+
+    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
+        levels.append(level)
+        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
+
+    seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
+    result = pyramid_search(fitness_at, space, PyramidConfig(finest_level=1), rng=0, seeds=seeds)
+    assert levels.count(0) == 1 and "local cma" in result.stop_reason
+    level0 = SoftFitness(model, features, 0, optics_blur_mm=result.optics_blur_mm)
+    assert result.fitness == pytest.approx(level0(result.x[None])[0])
+    assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0
