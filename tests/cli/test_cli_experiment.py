@@ -53,3 +53,15 @@ def test_other_settings_in_a_run_directory_are_refused(tmp_path: Path,
     capsys.readouterr()
     assert main([*base, "--seed", "2"]) == 2
     assert "other settings (seed)" in _error_line(capsys)
+
+
+def test_the_report_of_a_soft_run_maps_the_soft_fitness(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    """The default method's report (its fitness map re-evaluates the ``soft`` fitness)."""
+    argv = ["experiment", "--out", str(tmp_path / "run"), "--garments", "No.1", "--trials", "1",
+            "--workers", "1", "--seed", "0"]
+    assert main(argv) == 0
+    assert "Traceback" not in capsys.readouterr().err
+    report = (tmp_path / "run" / "report.md").read_text()
+    assert "No.1" in report
+    assert (tmp_path / "run" / "fitness_map.png").exists()

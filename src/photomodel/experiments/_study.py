@@ -6,13 +6,18 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
+from photomodel.camera import StereoRig
 from photomodel.errors import InputError
 from photomodel.experiments._records import read_records
 from photomodel.experiments._trials import ExperimentConfig, _locate, plan_trials, trial_inputs
+from photomodel.locate import LocateResult
+from photomodel.model import PhotoModel
 
 __all__ = ["write_experiment_report"]
 
@@ -45,7 +50,6 @@ def write_experiment_report(out: str | os.PathLike[str], focus: str = "No.3",
         Extent and pitch of the fitness map around the true position, mm.
     """
     from photomodel.experiments._report import fitness_map, write_report
-    from photomodel.fitness import make_fitness
 
     out = Path(out)
     config = _config(out)
@@ -59,9 +63,24 @@ def write_experiment_report(out: str | os.PathLike[str], focus: str = "No.3",
     trial = next(t for t in plan_trials(config) if t.garment == focus)
     model, rig, right, left, T_true, _ = trial_inputs(config, trial)
     result = _locate(config, trial, model, rig, right, left)
-    fit = make_fitness("paper" if config.paper else config.fitness, model, rig, right, left)
+    fit = _map_fitness(config, model, rig, right, left, result)
     x_mm, y_mm, F = fitness_map(fit, T_true, half_range_mm=half_range_mm, step_mm=step_mm)
     return write_report(out, records, summary, focus_garment=focus,
                         fitness_map=(x_mm, y_mm, F, (float(T_true[0, 3]), float(T_true[1, 3]))),
                         ga_history=(np.asarray(result.search.best_history),
                                     np.asarray(result.search.mean_history)))
+
+
+def _map_fitness(config: ExperimentConfig, model: PhotoModel, rig: StereoRig,
+                 right: NDArray[np.uint8], left: NDArray[np.uint8],
+                 result: LocateResult) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """The fitness the run's method ends on, for the map around the true pose: the ``soft``
+    fitness on level 0 with the camera blur the search estimated, else the named preset."""
+    from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness
+
+    if config.paper or config.fitness != "soft":
+        return make_fitness("paper" if config.paper else config.fitness, model, rig, right, left)
+    features = StereoFeatures(rig, right, left)
+    blur = result.optics_blur_mm
+    return SoftFitness(model, features, 0) if blur is None else SoftFitness(
+        model, features, 0, optics_blur_mm=blur)
