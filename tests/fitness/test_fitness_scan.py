@@ -171,3 +171,5 @@ def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
     level0 = SoftFitness(model, features, 0, optics_blur_mm=result.optics_blur_mm)
     assert result.fitness == pytest.approx(level0(result.x[None])[0])
     assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0
+    with pytest.raises(ValueError, match="finest_level"):
+        PyramidConfig(finest_level=3)

@@ -107,6 +107,11 @@ class PyramidConfig:
     retry_restarts: int = 8
     ga_with_seeds: bool = False
 
+    def __post_init__(self) -> None:
+        if not 0 <= self.finest_level < self.coarse_level:
+            raise ValueError(f"finest_level: expected 0..{self.coarse_level - 1}, "
+                             f"got {self.finest_level}")
+
     def for_retry(self) -> PyramidConfig:
         """These settings with ``retry_restarts`` GA restarts, run beside any seeds, for a
         search after a miss."""
