@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
-from photomodel.fitness import SoftFitness, StereoFeatures, model_samples
+from photomodel.fitness import SoftFitness, SoftMatch, StereoFeatures, model_samples
 from photomodel.fitness._soft import level_spacing
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
 from photomodel.image._features import log_opponent
@@ -48,6 +48,11 @@ def test_samples_straddle_the_outline() -> None:
     s = model_samples(model, level_spacing(0))
     assert len(s.p_in) > 500 and len(s.p_out) > 500 and s.palette.shape[1] == 3
     np.testing.assert_allclose(s.p_in[:, :2].mean(axis=0), 0.0, atol=3.0)  # model origin
+    # Each inner-ring point knows the outermost band point beside it (1 + 5 mm apart).
+    ring = s.table_out >= 0
+    assert 0.1 < ring.mean() < 0.6 and np.all(s.table_out[ring] < len(s.p_out))
+    gap = np.linalg.norm(s.p_in[ring, :2] - s.p_out[s.table_out[ring], :2], axis=1)
+    assert np.median(gap) == pytest.approx(6.0, abs=0.5)
     # Band points lie farther from the centroid than the inner ring on average.
     assert np.linalg.norm(s.p_out[:, :2], axis=1).mean() > np.linalg.norm(
         s.p_in[:, :2], axis=1).mean()
@@ -210,3 +215,38 @@ def test_kernel_matches_a_numpy_reference(level: int, palette_weight: float) -> 
         expected = _reference_terms(fitness, poses[k])
         np.testing.assert_allclose(fitness.last_terms[k], expected, atol=1e-6)
         assert f[k] == pytest.approx(expected[:, 0].mean(), abs=1e-6)
+
+
+def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
+    from photomodel.fitness._soft_kernels import _edge_mixture
+
+    navy = log_opponent(np.array([[[90, 40, 30]]], dtype=np.uint8))[0, 0].astype(float)
+    table = log_opponent(np.array([[[200, 205, 210]]], dtype=np.uint8))[0, 0].astype(float)
+    out = np.empty(3)
+    for t, expected_bgr in ((0.0, (90, 40, 30)), (1.0, (200, 205, 210)),
+                            (0.25, (0.75 * 90 + 0.25 * 200, 0.75 * 40 + 0.25 * 205,
+                                    0.75 * 30 + 0.25 * 210))):
+        _edge_mixture(navy, np.zeros(3), table, t, out)
+        b, g, r = (np.log(np.float64(x) + 8.0) for x in expected_bgr)
+        np.testing.assert_allclose(out, [(b + g + r) / 3, r - g, (r + g) / 2 - b], atol=1e-5)
+    # The model colour takes the scene's offsets before it mixes: a darker scene's navy.
+    o = np.array([-0.3, 0.0, 0.0])
+    _edge_mixture(navy, o, table, 0.0, out)
+    np.testing.assert_allclose(out, navy + o, atol=1e-12)
+
+
+def test_edge_mix_takes_the_depth_bias_off_a_dark_garment() -> None:
+    """Along camera 1's ray through the true pose of the navy trousers, the level-0 fitness
+    peaks 4.8 mm too far without the edge mixture and within a millimetre with it."""
+    model, rig, right, left, T_true, _ = _case("No.2")
+    x_true = _vector(T_true)
+    dz = np.arange(-10.0, 10.5, 0.5)
+    poses = np.repeat(x_true[None], len(dz), axis=0)
+    poses[:, :3] *= (1.0 + dz / x_true[2])[:, None]
+    peaks = {}
+    for mix in (False, True):
+        features = StereoFeatures(rig, right, left, match=SoftMatch(edge_mix=mix))
+        fitness = SoftFitness(model, features, 0)
+        assert (fitness.edge_mix_fraction > 0.05) is mix
+        peaks[mix] = dz[np.argmax(fitness(poses))]
+    assert peaks[False] >= 3.0 and abs(peaks[True]) <= 1.0, peaks

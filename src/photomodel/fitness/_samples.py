@@ -97,13 +97,15 @@ class ModelSamples:
     ``p_in`` (N, 3), ``f_in`` (N, 3): inner ring and interior; ``p_out`` (M, 3),
     ``f_out`` (M, 3): the band and the garment colour next to each band point;
     ``palette`` (K, 3): the garment's main colours (k-means of ``f_in``, K <= 6, computed
-    on first use).
+    on first use); ``table_out`` (N,): for each inner-ring point the band point of the
+    outermost ring beside it (what the table looks like there), -1 for interior points.
     """
 
     p_in: NDArray[np.float64]
     f_in: NDArray[np.float64]
     p_out: NDArray[np.float64]
     f_out: NDArray[np.float64]
+    table_out: NDArray[np.intp] | None = None
 
     @cached_property
     def palette(self) -> NDArray[np.float64]:
@@ -119,6 +121,7 @@ class _Geometry:
     uv_in: NDArray[np.float64]
     nearest_in: NDArray[np.intp]
     px_per_mm: float
+    table_out: NDArray[np.intp]
 
 
 def _model_camera(model: PhotoModel) -> tuple[PinholeCamera, float, NDArray[np.float64]]:
@@ -201,7 +204,7 @@ def _coloured(model: PhotoModel, geometry: _Geometry, spacing: SampleSpacing) ->
                             max(spacing.blur_mm * geometry.px_per_mm, 0.3))
     f_in = np.ascontiguousarray(_lookup(colours, geometry.uv_in), dtype=np.float64)
     return ModelSamples(geometry.p_in, f_in, geometry.p_out,
-                        np.ascontiguousarray(f_in[geometry.nearest_in]))
+                        np.ascontiguousarray(f_in[geometry.nearest_in]), geometry.table_out)
 
 
 def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
@@ -254,8 +257,12 @@ def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
     p_out = np.concatenate(rings) if rings else np.zeros((0, 2))
 
     _, nearest = cKDTree(inner).query(p_out)
+    table_out = np.full(len(p_in), -1, dtype=np.intp)
+    if rings and len(rings[-1]) and len(inner):
+        _, beside = cKDTree(rings[-1]).query(inner)
+        table_out[:len(inner)] = len(p_out) - len(rings[-1]) + np.asarray(beside, np.intp)
     return _Geometry(_lift(p_in), _lift(p_out), to_crop(p_in), np.asarray(nearest, np.intp),
-                     px_per_mm)
+                     px_per_mm, table_out)
 
 
 def _palette(colours: NDArray[np.float64], max_colours: int = 6) -> NDArray[np.float64]:

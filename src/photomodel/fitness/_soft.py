@@ -31,6 +31,7 @@ averaged. What changes, and why:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -59,16 +60,26 @@ class SoftMatch:
         Cost per squared unit of chroma offset (a colour cast the pose must assume).
     smooth_sigma_px : float
         Gaussian smoothing of the level-0 feature images against sensor noise.
+    edge_mix : bool
+        Expect the inner ring to show the model colour mixed, in linear intensity, with the
+        table colour seen just outside (the blurred edge), a fraction ``Phi(-ring_mm /
+        sigma)`` of it with ``sigma = hypot(optics blur, edge_blur_mm)``. Without it a dark
+        garment's edge reads lighter in log units than its colour, and the fit shrinks the
+        model and moves it away (navy No.2: 4.8 mm too far along the ray).
+    edge_blur_mm : float
+        Linear-intensity blur of an edge besides the optics (pixel area, rendering), mm.
     """
 
     sigma_l: float = 0.12
     sigma_c: float = 0.12
     wb_weight: float = 0.1
     smooth_sigma_px: float = 0.7
+    edge_mix: bool = False
+    edge_blur_mm: float = 0.5
 
     def __post_init__(self) -> None:
         if not (self.sigma_l > 0 and self.sigma_c > 0 and self.wb_weight >= 0
-                and self.smooth_sigma_px >= 0):
+                and self.smooth_sigma_px >= 0 and self.edge_blur_mm > 0):
             raise ValueError(f"SoftMatch: expected positive tolerances, got {self}")
 
 
@@ -171,6 +182,13 @@ class SoftFitness:
         self.K1, self.K2 = features.camera_matrices(level)
         m = features.match
         self._args = (1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2, float(m.wb_weight))
+        self.edge_mix_fraction = 0.0
+        self._table_out = np.full(len(self.samples.p_in), -1, dtype=np.intp)
+        if m.edge_mix and self.samples.table_out is not None:
+            used = spacing or level_spacing(level, optics_blur_mm=optics_blur_mm)
+            sigma = float(np.hypot(used.optics_blur_mm, m.edge_blur_mm))
+            self.edge_mix_fraction = 0.5 * math.erfc(used.ring_mm / sigma / math.sqrt(2.0))
+            self._table_out = self.samples.table_out
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
 
     def score(self, fitness: float) -> float:
@@ -194,6 +212,7 @@ class SoftFitness:
         soft_fitness_kernel(np.ascontiguousarray(T[:, :3, :3]), np.ascontiguousarray(T[:, :3, 3]),
                             rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
                             rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
-                            self.palette, self.palette_weight, img1, img2, *self._args, f, terms)
+                            self.palette, self.palette_weight, img1, img2, *self._args,
+                            self._table_out, self.edge_mix_fraction, f, terms)
         self.last_terms = terms
         return f

@@ -10,6 +10,10 @@ from photomodel.fitness._kernels import _project, camera2_pose
 _OFFSET_ITERATIONS = 3
 """Mean-shift steps of the light offsets from each start."""
 
+_OPPONENT = np.array([[1 / 3, 1 / 3, 1 / 3], [0.0, -1.0, 1.0], [-1.0, 0.5, 0.5]])
+_LOGS = np.linalg.inv(_OPPONENT)
+"""(l, a, b) = _OPPONENT @ (ln B', ln G', ln R') and back (X' = X + 8, as in log_opponent)."""
+
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _bilinear(img, u, v, out):  # pragma: no cover - compiled
@@ -53,23 +57,53 @@ def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cov
     return np.exp(-0.5 * best)
 
 
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _edge_mixture(model, o, table, t, out):  # pragma: no cover - compiled
+    """``out`` = the features (l, a, b) of the model colour ``model`` under the offsets ``o``
+    mixed with the fraction ``t`` of the scene's ``table`` colour, in linear intensity (as the
+    optics and the pixel mix them), not in the logarithms."""
+    mixed = np.empty(3)
+    for c in range(3):
+        m = 0.0
+        w = 0.0
+        for k in range(3):
+            m += _LOGS[c, k] * (model[k] + o[k])
+            w += _LOGS[c, k] * table[k]
+        # Intensities + LOG_OFFSET mix as intensities do: the offset carries through.
+        mixed[c] = np.log((1.0 - t) * np.exp(m) + t * np.exp(w))
+    for c in range(3):
+        out[c] = (_OPPONENT[c, 0] * mixed[0] + _OPPONENT[c, 1] * mixed[1]
+                  + _OPPONENT[c, 2] * mixed[2])
+
+
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
-                  inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out
-                  ):  # pragma: no cover - compiled
+                  inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff, valid,
+                  band, band_ok, out):  # pragma: no cover - compiled
     """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
 
     With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
     as well as its best palette colour (garment anywhere), not only as well as its own
-    point's colour (this part of the garment). ``buf`` and ``diff`` (N_in, 3) and ``valid``
-    (N_in,) are work space: the samples, their differences to the model's colours and
-    whether they fell inside the image.
+    point's colour (this part of the garment). With ``mix_t`` > 0 an inner-ring point with
+    a band point ``table_out[j] >= 0`` is expected to show its model colour mixed with that
+    fraction of the table colour seen at the band point (the blurred edge), once the offsets
+    are known. ``buf`` and ``diff`` (N_in, 3), ``valid`` (N_in,), ``band`` (N_out, 3) and
+    ``band_ok`` (N_out,) are work space: the samples, their differences to the model's
+    colours and whether they fell inside the image.
     """
     use_palette = palette.shape[0] > 0
     n_in = p_in.shape[0]
     sample = np.empty(3)
     o = np.zeros(3)
     n_valid = 0
+    for j in range(p_out.shape[0]):
+        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
+        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
+        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        band_ok[j] = _bilinear(img, u, v, sample)
+        for c in range(3):
+            band[j, c] = sample[c]
     for j in range(n_in):
         X = R[0, 0] * p_in[j, 0] + R[0, 1] * p_in[j, 1] + t[0]
         Y = R[1, 0] * p_in[j, 0] + R[1, 1] * p_in[j, 1] + t[1]
@@ -133,6 +167,18 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     for c in range(3):
         o[c] = best_o[c]
     s_in = best_sum
+    if mix_t > 0.0:
+        expected = np.empty(3)
+        for j in range(n_in):
+            k = table_out[j]
+            if valid[j] and k >= 0 and band_ok[k]:
+                _edge_mixture(f_in[j], o, band[k], mix_t, expected)
+                s_in -= np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+                                                 inv_var_l, inv_var_c))
+                for c in range(3):   # so that diff - o = sample - expected
+                    diff[j, c] = buf[j, c] - expected[c] + o[c]
+                s_in += np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+                                                 inv_var_l, inv_var_c))
     if use_palette:
         s_in = 0.0
         for j in range(n_in):
@@ -143,14 +189,10 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
                                                                 inv_var_c))
     s_out = 0.0
     for j in range(p_out.shape[0]):
-        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
-        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
-        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
-        u, v = _project(X, Y, Z, K, D)
-        if _bilinear(img, u, v, sample):
-            a = _agreement(sample, f_out[j], o, inv_var_l, inv_var_c)
+        if band_ok[j]:
+            a = _agreement(band[j], f_out[j], o, inv_var_l, inv_var_c)
             if use_palette:
-                a = max(a, palette_weight * _best_agreement(sample, palette, o, inv_var_l,
+                a = max(a, palette_weight * _best_agreement(band[j], palette, o, inv_var_l,
                                                             inv_var_c))
             s_out += a
         else:  # no contrast seen where the band leaves the image: as bad as garment there
@@ -168,9 +210,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, palette,
-                        palette_weight, img1, img2,
-                        inv_var_l, inv_var_c, wb_weight, out_f, out_terms
-                        ):  # pragma: no cover - compiled
+                        palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
+                        table_out, mix_t, out_f, out_terms):  # pragma: no cover - compiled
     """Fill ``out_f`` (P,) with the fitness and ``out_terms`` (P, 2, 6) with each camera's
     (F_c, S_in agreement, S_out agreement, offsets l, a, b)."""
     n_in = p_in.shape[0]
@@ -181,8 +222,12 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         buf = np.empty((n_in, 3))
         diff = np.empty((n_in, 3))
         valid = np.empty(n_in, dtype=np.bool_)
+        band = np.empty((p_out.shape[0], 3))
+        band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
         _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img1, inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out_terms[p, 0])
+                      img1, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff,
+                      valid, band, band_ok, out_terms[p, 0])
         _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img2, inv_var_l, inv_var_c, wb_weight, buf, diff, valid, out_terms[p, 1])
+                      img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff,
+                      valid, band, band_ok, out_terms[p, 1])
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
