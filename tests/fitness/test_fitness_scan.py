@@ -112,25 +112,29 @@ def test_scan_config_rejects_bad_values() -> None:
         scan_flat_poses(model, features, space.lower, space.upper, ScanConfig(level=9))
 
 
+def _recording(model, features: StereoFeatures, asked: list[tuple[int, float]]):
+    """A ``fitness_at`` for ``pyramid_search`` that notes each (level, palette weight) built."""
+    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
+        asked.append((level, weight))
+        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
+    return fitness_at
+
+
 def test_pyramid_search_from_seeds_needs_no_ga() -> None:
     model, features, T_true = _case("No.1")
     space = SearchSpace.from_ranges()
-    asked: list[float] = []
-
-    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
-        asked.append(weight)
-        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
-
+    asked: list[tuple[int, float]] = []
+    fitness_at = _recording(model, features, asked)
     seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
     result = pyramid_search(fitness_at, space, PyramidConfig(), rng=0, seeds=seeds)
-    assert all(w == 0.0 for w in asked)   # the palette fitness (the GA's) was never built
+    assert all(w == 0.0 for _, w in asked)   # the palette fitness (the GA's) was never built
     T = pose_vectors_to_matrices(result.x)[0]
     assert np.linalg.norm(T[:3, 3] - T_true[:3, 3]) < 2.0
     assert "GA" not in result.stop_reason and "generations" not in result.stop_reason
     # A retry runs the GA beside the same seeds.
     asked.clear()
     pyramid_search(fitness_at, space, PyramidConfig().for_retry(), rng=0, seeds=seeds[:1])
-    assert PyramidConfig().palette_weight in asked
+    assert PyramidConfig().palette_weight in [w for _, w in asked]
 
 
 def test_a_small_garment_is_not_tilted_on_the_coarse_level() -> None:
@@ -159,15 +163,11 @@ def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
     """``finest_level=1`` skips level 0's refinement, not its score (the threshold's scale)."""
     model, features, T_true = _case("No.1")
     space = SearchSpace.from_ranges()
-    levels: list[int] = []
-
-    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
-        levels.append(level)
-        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
-
+    asked: list[tuple[int, float]] = []
     seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
-    result = pyramid_search(fitness_at, space, PyramidConfig(finest_level=1), rng=0, seeds=seeds)
-    assert levels.count(0) == 1 and "local cma" in result.stop_reason
+    result = pyramid_search(_recording(model, features, asked), space,
+                            PyramidConfig(finest_level=1), rng=0, seeds=seeds)
+    assert [lv for lv, _ in asked].count(0) == 1 and "local cma" in result.stop_reason
     level0 = SoftFitness(model, features, 0, optics_blur_mm=result.optics_blur_mm)
     assert result.fitness == pytest.approx(level0(result.x[None])[0])
     assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0

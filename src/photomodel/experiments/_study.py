@@ -80,7 +80,7 @@ def _map_fitness(config: ExperimentConfig, model: PhotoModel, rig: StereoRig,
 
     if config.paper or config.fitness != "soft":
         return make_fitness("paper" if config.paper else config.fitness, model, rig, right, left)
-    features = StereoFeatures(rig, right, left)
-    blur = result.optics_blur_mm
-    return SoftFitness(model, features, 0) if blur is None else SoftFitness(
-        model, features, 0, optics_blur_mm=blur)
+    # A soft run's search is the pyramid, which always estimates the camera blur.
+    assert result.optics_blur_mm is not None
+    return SoftFitness(model, StereoFeatures(rig, right, left), 0,
+                       optics_blur_mm=result.optics_blur_mm)

@@ -273,22 +273,17 @@ def _distinct_peaks(peaks: list[tuple[float, float, float, int, int]],
                     rays: NDArray[np.float64], lower: NDArray[np.float64],
                     upper: NDArray[np.float64], c: ScanConfig, maps: int) -> ScanResult:
     """The best peaks, distinct in camera ray or angle, inside the box, as pose vectors."""
-    scores: list[float] = []
-    rays_kept: list[NDArray[np.float64]] = []
-    poses: list[NDArray[np.float64]] = []
+    kept: list[tuple[float, float, float, NDArray[np.float64]]] = []  # score, z, angle, ray
     separation = np.deg2rad(c.min_angle_separation_deg)
     for score, z, theta, u, v in peaks:
-        ray = rays[v, u, :2]
-        t = np.array([ray[0] * z, ray[1] * z, z])
-        if np.any(t < lower[:3]) or np.any(t > upper[:3]):
+        ray = rays[v, u]
+        if np.any(ray * z < lower[:3]) or np.any(ray * z > upper[:3]):
             continue
-        if all(np.linalg.norm(ray - r) > c.min_separation or abs(theta - p[6]) > separation
-               for r, p in zip(rays_kept, poses, strict=True)):
-            scores.append(score)
-            rays_kept.append(ray)
-            poses.append(np.array([*t, 0.0, 0.0, np.sin(theta / 2), theta]))
-        if len(poses) >= c.hypotheses:
+        if all(np.linalg.norm(ray[:2] - r[:2]) > c.min_separation or abs(theta - a) > separation
+               for _, _, a, r in kept):
+            kept.append((score, z, theta, ray))
+        if len(kept) >= c.hypotheses:
             break
-    vectors = np.array(poses).reshape(-1, 7)[:, :6]
-    trusted = bool(scores) and scores[0] >= c.trusted_score
-    return ScanResult(vectors, np.array(scores), maps, trusted)
+    poses = np.array([[*(r * z), 0.0, 0.0, np.sin(a / 2)] for _, z, a, r in kept]).reshape(-1, 6)
+    scores = np.array([s for s, *_ in kept])
+    return ScanResult(poses, scores, maps, bool(len(scores) and scores[0] >= c.trusted_score))

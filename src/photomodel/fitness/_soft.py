@@ -173,8 +173,8 @@ class SoftFitness:
         self.model = model
         self.features = features
         self.level = level
-        self.samples: ModelSamples = model_samples(
-            model, spacing or level_spacing(level, optics_blur_mm=optics_blur_mm))
+        spacing = spacing or level_spacing(level, optics_blur_mm=optics_blur_mm)
+        self.samples: ModelSamples = model_samples(model, spacing)
         if not 0.0 <= palette_weight <= 1.0:
             raise ValueError(f"palette_weight: expected [0, 1], got {palette_weight}")
         self.palette_weight = float(palette_weight)
@@ -185,9 +185,8 @@ class SoftFitness:
         self.edge_mix_fraction = 0.0
         self._table_out = np.full(len(self.samples.p_in), -1, dtype=np.intp)
         if m.edge_mix and self.samples.table_out is not None:
-            used = spacing or level_spacing(level, optics_blur_mm=optics_blur_mm)
-            sigma = float(np.hypot(used.optics_blur_mm, m.edge_blur_mm))
-            self.edge_mix_fraction = 0.5 * math.erfc(used.ring_mm / sigma / math.sqrt(2.0))
+            sigma = float(np.hypot(spacing.optics_blur_mm, m.edge_blur_mm))
+            self.edge_mix_fraction = 0.5 * math.erfc(spacing.ring_mm / sigma / math.sqrt(2.0))
             self._table_out = self.samples.table_out
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
 

@@ -62,18 +62,18 @@ def _edge_mixture(model, o, table, t, out):  # pragma: no cover - compiled
     """``out`` = the features (l, a, b) of the model colour ``model`` under the offsets ``o``
     mixed with the fraction ``t`` of the scene's ``table`` colour, in linear intensity (as the
     optics and the pixel mix them), not in the logarithms."""
-    mixed = np.empty(3)
     for c in range(3):
+        out[c] = 0.0
+    for k in range(3):   # log channel k (B', G', R'), then its share of l, a, b
         m = 0.0
         w = 0.0
-        for k in range(3):
-            m += _LOGS[c, k] * (model[k] + o[k])
-            w += _LOGS[c, k] * table[k]
+        for j in range(3):
+            m += _LOGS[k, j] * (model[j] + o[j])
+            w += _LOGS[k, j] * table[j]
         # Intensities + LOG_OFFSET mix as intensities do: the offset carries through.
-        mixed[c] = np.log((1.0 - t) * np.exp(m) + t * np.exp(w))
-    for c in range(3):
-        out[c] = (_OPPONENT[c, 0] * mixed[0] + _OPPONENT[c, 1] * mixed[1]
-                  + _OPPONENT[c, 2] * mixed[2])
+        mixed = np.log((1.0 - t) * np.exp(m) + t * np.exp(w))
+        for c in range(3):
+            out[c] += _OPPONENT[c, k] * mixed
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
