@@ -106,6 +106,17 @@ def test_ik_from_a_nearby_start_stays_near(q: tuple[float, ...], kick: list[floa
     assert np.max(np.abs(result.q - q_true)) < np.radians(30.0)
 
 
+def test_ik_near_the_straight_arm_needs_no_restart() -> None:
+    # Hypothesis found this: next to the straight-arm singularity a refused step used to be
+    # tried again unchanged until the solver gave up; the damping must grow on refusal.
+    q_true = np.array([0.0, 0.0, 0.0, -0.0156, 0.0, 0.0, 0.0])
+    T = forward_kinematics(ARM, q_true)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        result = inverse_kinematics(ARM, T, q_true + rng.uniform(-0.05, 0.05, 7), rng=0)
+        assert result.success and result.starts == 1
+
+
 def test_out_of_reach_fails_fast_with_a_reason() -> None:
     T = np.eye(4)
     T[:3, 3] = [1500.0, 0.0, 300.0]

@@ -220,15 +220,19 @@ def _solve_from(arm: ArmModel, T_target: NDArray[np.float64], q0: NDArray[np.flo
     e, J = _error_and_jacobian(arm, T_target, q, True)
     E = 0.5 * float(e @ (w * e))
     E_window = E
+    boost = 1.0  # grows while steps are refused: a refused step is not tried again unchanged
     for it in range(1, settings.max_iterations + 1):
         JtW = J.T * w
-        step = np.linalg.solve(JtW @ J + (E + settings.damping) * eye, JtW @ e)
+        step = np.linalg.solve(JtW @ J + boost * (E + settings.damping) * eye, JtW @ e)
         q_new = np.clip(q + step, arm.q_min_rad, arm.q_max_rad)
         e_new, _ = _error_and_jacobian(arm, T_target, q_new, False)
         E_new = 0.5 * float(e_new @ (w * e_new))
         if E_new < E:
             q, E = q_new, E_new
             e, J = _error_and_jacobian(arm, T_target, q, True)
+            boost = max(1.0, 0.25 * boost)
+        else:
+            boost *= 4.0
         pos, rot = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
         if pos < settings.tol_mm and rot < settings.tol_rad:
             return q, pos, rot, it
