@@ -149,6 +149,16 @@ def test_pyramid_search_estimates_the_camera_blur() -> None:
     assert result.fitness > in_focus + 0.15, (result.fitness, in_focus)
 
 
+_OPPONENT_FROM_LOGS = np.array([[1 / 3, 1 / 3, 1 / 3], [0.0, -1.0, 1.0], [-1.0, 0.5, 0.5]])
+
+
+def _mix_linear(features_a: np.ndarray, features_b: np.ndarray, t: float) -> np.ndarray:
+    """Features (n, 3) of (1 - t) a + t b mixed as intensities (+ the log offset)."""
+    to_logs = np.linalg.inv(_OPPONENT_FROM_LOGS)
+    logs_a, logs_b = features_a @ to_logs.T, features_b @ to_logs.T
+    return np.log((1.0 - t) * np.exp(logs_a) + t * np.exp(logs_b)) @ _OPPONENT_FROM_LOGS.T
+
+
 def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
     """Per-camera terms (2, 6) of one pose, written out in numpy from the module docstring."""
     s, feats = fitness.samples, fitness.features
@@ -193,8 +203,17 @@ def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
                               a @ d[:, 2] / (a.sum() + ridge)])
             ends.append((agree(d, o).sum() / len(s.p_in) - wb * (o[1] ** 2 + o[2] ** 2), o))
         o = max(ends, key=lambda e: e[0])[1]
-        s_in = with_palette(agree(d, o), x_in[ok], o).sum() / len(s.p_in)
         x_out, ok_out = sample(img, uv_out[cam])
+        t = fitness.edge_mix_fraction
+        if t > 0.0:  # inner-ring points expect their colour mixed with the band's table colour
+            k = s.table_out
+            mixed = ok & (k >= 0) & ok_out[np.maximum(k, 0)]
+            expected = _mix_linear(s.f_in[mixed] + o, x_out[k[mixed]], t)
+            d_all = np.zeros_like(x_in)
+            d_all[ok] = d
+            d_all[mixed] = x_in[mixed] - expected + o
+            d = d_all[ok]
+        s_in = with_palette(agree(d, o), x_in[ok], o).sum() / len(s.p_in)
         a_out = np.where(ok_out, with_palette(agree(x_out - s.f_out, o), x_out, o), 1.0)
         s_out = a_out.mean()
         terms[cam] = (s_in - s_out - wb * (o[1] ** 2 + o[2] ** 2), s_in, s_out, *o)

@@ -74,7 +74,7 @@ class SoftMatch:
     sigma_c: float = 0.12
     wb_weight: float = 0.1
     smooth_sigma_px: float = 0.7
-    edge_mix: bool = False
+    edge_mix: bool = True
     edge_blur_mm: float = 0.5
 
     def __post_init__(self) -> None:

@@ -9,19 +9,21 @@ For one stereo pair and a list of photo-models:
    evidence (at least ``min_evidence``) go on. This costs milliseconds per model, where a
    pose search costs about a second.
 3. **Locate each candidate** with the default ``soft`` method
-   (:func:`~photomodel.locate.locate_in_features`: GA on the coarsest level with the
-   garment's palette, then local refinement down to level 0), each with its own seed derived
-   from the call's seed, the model's name and the attempt (a model's search does not depend
-   on which others are in the library).
+   (:func:`~photomodel.locate.locate_in_features`: a correlation scan of flat poses on the
+   coarsest level, then local refinement of its peaks down to level 0), each with its own
+   seed derived from the call's seed, the model's name and the attempt (a model's search does
+   not depend on which others are in the library).
 4. **Decide**: the candidate with the highest score is the answer when its score reaches
    ``min_score``, the threshold calibrated on simulated scenes and stored with the package
    (:func:`~photomodel.identify.load_threshold`); otherwise none of the models is on the
    table. The runner-up is the next best located candidate.
 5. **Second look**: when no candidate reaches ``min_score``, the candidates are searched
-   again with fresh seeds (``retries`` times), each keeping its better result. The stochastic
-   global search misses the true pose now and then (``locate`` alone fails on a few percent
-   of paper-condition scenes); a scene with a library garment then scores low once, not
-   twice, while a scene without one costs the extra searches and stays below the threshold.
+   again with fresh seeds (``retries`` times), each keeping its better result, with
+   ``locate``'s retry configuration (GA beside the same scan peaks, more restarts; the scan
+   is computed once per candidate). The scan sees the garment as lit at the model station
+   and misses it now and then under other light; a scene with a library garment then scores
+   low once, not twice, while a scene without one costs the extra searches and stays below
+   the threshold.
 
 The score is ``locate``'s: the ``soft`` fitness at level 0, in [0, 1] (about the share of the
 model's points that agree with both images once the band around the outline is accounted for).
@@ -39,7 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
-from photomodel.fitness import StereoFeatures
+from photomodel.fitness import ScanResult, StereoFeatures, scan_flat_poses
 from photomodel.identify._screen import ScreenConfig, colour_evidence
 from photomodel.locate import LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
@@ -214,13 +216,17 @@ def identify_in_features(
     order = np.argsort(-evidence, kind="stable")
     chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= c.min_evidence]
     located: dict[int, LocateResult] = {}
+    scans: dict[int, ScanResult] = {}
     for attempt in range(1 + c.retries):
         if located and max(r.score for r in located.values()) >= min_score:
             break
         for i in chosen:
+            if i not in scans:
+                scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
             r = locate_in_features(models[i], features, space=space,
                                    rng=_model_rng(base, models[i].name, attempt),
-                                   min_score=min_score, t0=time.perf_counter(), retries=0)
+                                   min_score=min_score, t0=time.perf_counter(), retries=0,
+                                   scan=scans[i], second_look=attempt > 0)
             if i not in located or r.score > located[i].score:
                 located[i] = r
     candidates = tuple(Candidate(models[int(i)].name, float(evidence[i]), located.get(int(i)))

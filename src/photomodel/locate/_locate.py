@@ -11,7 +11,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
-from photomodel.fitness import SoftFitness, StereoFeatures, make_fitness, scan_flat_poses
+from photomodel.fitness import (
+    ScanResult,
+    SoftFitness,
+    StereoFeatures,
+    make_fitness,
+    scan_flat_poses,
+)
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
@@ -219,6 +225,8 @@ def locate_in_features(
     min_score: float | None = None,
     t0: float | None = None,
     retries: int = 1,
+    scan: ScanResult | None = None,
+    second_look: bool = False,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -249,6 +257,12 @@ def locate_in_features(
         :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best. The scan
         sees the garment as lit at the model station; a GA retry finds it under other light.
         A scene without the garment costs ``1 + retries`` searches.
+    scan : ScanResult, optional
+        This model's :func:`~photomodel.fitness.scan_flat_poses` of ``features`` with
+        ``space``'s bounds, when the caller has it already (it is deterministic).
+    second_look : bool
+        The caller searched once already (``identify``'s second look): every search runs the
+        retry configuration.
 
     Returns
     -------
@@ -266,14 +280,16 @@ def locate_in_features(
     best: SearchResult | None = None
     searches = evaluations = 0
     config = PyramidConfig()
-    scan = scan_flat_poses(model, features, space.lower, space.upper)
+    if scan is None:
+        scan = scan_flat_poses(model, features, space.lower, space.upper)
     if not scan.trusted:
         config = replace(config, ga_with_seeds=True)
     while searches <= retries and (best is None or best.fitness < min_score):
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
-            space, config if searches == 0 else config.for_retry(), rng=gen, seeds=scan.poses)
+            space, config if searches == 0 and not second_look else config.for_retry(),
+            rng=gen, seeds=scan.poses)
         searches += 1
         evaluations += attempt.evaluations
         if best is None or attempt.fitness > best.fitness:
