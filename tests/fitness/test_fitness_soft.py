@@ -12,7 +12,7 @@ from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import SoftFitness, SoftMatch, StereoFeatures, model_samples
 from photomodel.fitness._soft import level_spacing
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
-from photomodel.image._features import log_opponent
+from photomodel.image._features import linear_intensity, log_opponent
 from photomodel.search import (
     LocalRefine,
     PyramidConfig,
@@ -245,12 +245,12 @@ def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
     for t, expected_bgr in ((0.0, (90, 40, 30)), (1.0, (200, 205, 210)),
                             (0.25, (0.75 * 90 + 0.25 * 200, 0.75 * 40 + 0.25 * 205,
                                     0.75 * 30 + 0.25 * 210))):
-        _edge_mixture(navy, np.zeros(3), table, t, out)
+        _edge_mixture(linear_intensity(navy), np.ones(3), table, t, out)
         b, g, r = (np.log(np.float64(x) + 8.0) for x in expected_bgr)
         np.testing.assert_allclose(out, [(b + g + r) / 3, r - g, (r + g) / 2 - b], atol=1e-5)
     # The model colour takes the scene's offsets before it mixes: a darker scene's navy.
     o = np.array([-0.3, 0.0, 0.0])
-    _edge_mixture(navy, o, table, 0.0, out)
+    _edge_mixture(linear_intensity(navy), linear_intensity(o), table, 0.0, out)
     np.testing.assert_allclose(out, navy + o, atol=1e-12)
 
 
@@ -269,3 +269,8 @@ def test_edge_mix_takes_the_depth_bias_off_a_dark_garment() -> None:
         assert (fitness.edge_mix_fraction > 0.05) is mix
         peaks[mix] = dz[np.argmax(fitness(poses))]
     assert peaks[False] >= 3.0 and abs(peaks[True]) <= 1.0, peaks
+
+
+def test_linear_intensity_inverts_log_opponent() -> None:
+    bgr = np.random.default_rng(0).integers(0, 256, (7, 5, 3), dtype=np.uint8)
+    np.testing.assert_allclose(linear_intensity(log_opponent(bgr)), bgr + 8.0, rtol=1e-5)

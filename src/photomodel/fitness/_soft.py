@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from photomodel.camera import StereoRig
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.geometry import pose_vectors_to_matrices
-from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.image._features import feature_pyramid, linear_intensity, log_opponent
 from photomodel.model import PhotoModel
 
 __all__ = ["SoftFitness", "SoftMatch", "StereoFeatures"]
@@ -188,6 +188,7 @@ class SoftFitness:
             sigma = float(np.hypot(spacing.optics_blur_mm, m.edge_blur_mm))
             self.edge_mix_fraction = 0.5 * math.erfc(spacing.ring_mm / sigma / math.sqrt(2.0))
             self._table_out = self.samples.table_out
+        self._lin_in = linear_intensity(self.samples.f_in)
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
 
     def score(self, fitness: float) -> float:
@@ -212,6 +213,6 @@ class SoftFitness:
                             rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
                             rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
                             self.palette, self.palette_weight, img1, img2, *self._args,
-                            self._table_out, self.edge_mix_fraction, f, terms)
+                            self._table_out, self.edge_mix_fraction, self._lin_in, f, terms)
         self.last_terms = terms
         return f

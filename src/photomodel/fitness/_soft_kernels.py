@@ -58,27 +58,27 @@ def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cov
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _edge_mixture(model, o, table, t, out):  # pragma: no cover - compiled
-    """``out`` = the features (l, a, b) of the model colour ``model`` under the offsets ``o``
-    mixed with the fraction ``t`` of the scene's ``table`` colour, in linear intensity (as the
-    optics and the pixel mix them), not in the logarithms."""
+def _edge_mixture(model_lin, gain, table, t, out):  # pragma: no cover - compiled
+    """``out`` = the features (l, a, b) of a model colour mixed with the fraction ``t`` of the
+    scene's ``table`` colour (features), in linear intensity (as the optics and the pixel mix
+    them), not in the logarithms. The model colour is given linear, ``model_lin`` = exp of
+    its log channels (B', G', R'), and takes the scene's offsets as the factors ``gain`` =
+    exp of the offsets' log channels."""
     for c in range(3):
         out[c] = 0.0
     for k in range(3):   # log channel k (B', G', R'), then its share of l, a, b
-        m = 0.0
         w = 0.0
         for j in range(3):
-            m += _LOGS[k, j] * (model[j] + o[j])
             w += _LOGS[k, j] * table[j]
         # Intensities + LOG_OFFSET mix as intensities do: the offset carries through.
-        mixed = np.log((1.0 - t) * np.exp(m) + t * np.exp(w))
+        mixed = np.log((1.0 - t) * model_lin[k] * gain[k] + t * np.exp(w))
         for c in range(3):
             out[c] += _OPPONENT[c, k] * mixed
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
-                  inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff, valid,
+                  inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff, valid,
                   band, band_ok, out):  # pragma: no cover - compiled
     """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
 
@@ -87,7 +87,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     point's colour (this part of the garment). With ``mix_t`` > 0 an inner-ring point with
     a band point ``table_out[j] >= 0`` is expected to show its model colour mixed with that
     fraction of the table colour seen at the band point (the blurred edge), once the offsets
-    are known. ``buf`` and ``diff`` (N_in, 3), ``valid`` (N_in,), ``band`` (N_out, 3) and
+    are known; ``lin_in`` (N_in, 3) holds the model colours linear (exp of the log channels
+    B', G', R'). ``buf`` and ``diff`` (N_in, 3), ``valid`` (N_in,), ``band`` (N_out, 3) and
     ``band_ok`` (N_out,) are work space: the samples, their differences to the model's
     colours and whether they fell inside the image.
     """
@@ -169,10 +170,13 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     s_in = best_sum
     if mix_t > 0.0:
         expected = np.empty(3)
+        gain = np.empty(3)
+        for k in range(3):
+            gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
         for j in range(n_in):
             k = table_out[j]
             if valid[j] and k >= 0 and band_ok[k]:
-                _edge_mixture(f_in[j], o, band[k], mix_t, expected)
+                _edge_mixture(lin_in[j], gain, band[k], mix_t, expected)
                 s_in -= np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
                                                  inv_var_l, inv_var_c))
                 for c in range(3):   # so that diff - o = sample - expected
@@ -211,7 +215,7 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, palette,
                         palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
-                        table_out, mix_t, out_f, out_terms):  # pragma: no cover - compiled
+                        table_out, mix_t, lin_in, out_f, out_terms):  # pragma: no cover - compiled
     """Fill ``out_f`` (P,) with the fitness and ``out_terms`` (P, 2, 6) with each camera's
     (F_c, S_in agreement, S_out agreement, offsets l, a, b)."""
     n_in = p_in.shape[0]
@@ -225,9 +229,9 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         band = np.empty((p_out.shape[0], 3))
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
         _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img1, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff,
+                      img1, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
                       valid, band, band_ok, out_terms[p, 0])
         _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, buf, diff,
+                      img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
                       valid, band, band_ok, out_terms[p, 1])
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LOG_OFFSET", "feature_pyramid", "log_opponent"]
+__all__ = ["LOG_OFFSET", "feature_pyramid", "linear_intensity", "log_opponent"]
 
 LOG_OFFSET = 8.0
 """Grey levels added before the logarithm."""
@@ -50,6 +50,13 @@ def log_opponent(image_bgr: NDArray[np.uint8], smooth_sigma_px: float = 0.0
     if smooth_sigma_px > 0:
         feat = cv2.GaussianBlur(feat, (0, 0), smooth_sigma_px)
     return np.ascontiguousarray(feat, dtype=np.float32)
+
+
+def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:
+    """The intensities ``(B', G', R') = (B, G, R) + LOG_OFFSET`` (..., 3) of log-opponent
+    features (..., 3): the inverse of :func:`log_opponent` before its rounding to uint8."""
+    logs = np.asarray(features, dtype=np.float64) @ np.linalg.inv(_OPPONENT.astype(np.float64)).T
+    return np.exp(logs)
 
 
 def feature_pyramid(features: NDArray[np.float32], levels: int) -> list[NDArray[np.float32]]:
