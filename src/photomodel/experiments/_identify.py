@@ -193,7 +193,9 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
         "visible_fraction": (shot.info["visible_fraction"] or [nan])[0],
         "seconds": result.seconds,
         "scores": json.dumps({c.model: [round(c.evidence, 4),
-                                        None if c.score is None else round(c.score, 5)]
+                                        None if c.score is None else round(c.score, 5),
+                                        None if c.result is None
+                                        else round(c.result.edge_evidence, 5)]
                               for c in result.candidates}, separators=(",", ":")),
     }
     T_true = shot.T_cam1_model

@@ -2,6 +2,7 @@
 the ``soft`` fitness (graded log-opponent colour, sub-pixel, over a feature pyramid)."""
 
 from photomodel.fitness._base import Fitness
+from photomodel.fitness._edges import edge_evidence
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
@@ -21,6 +22,7 @@ __all__ = [
     "SoftFitness",
     "SoftMatch",
     "StereoFeatures",
+    "edge_evidence",
     "hue_code_image",
     "hue_codes",
     "hue_codes_match",

@@ -20,7 +20,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LOG_OFFSET", "feature_pyramid", "linear_intensity", "log_opponent"]
+__all__ = ["LOG_OFFSET", "feature_pyramid", "features_from_linear", "linear_intensity",
+           "log_opponent"]
 
 LOG_OFFSET = 8.0
 """Grey levels added before the logarithm."""
@@ -57,6 +58,12 @@ def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:
     features (..., 3): the inverse of :func:`log_opponent` before its rounding to uint8."""
     logs = np.asarray(features, dtype=np.float64) @ np.linalg.inv(_OPPONENT.astype(np.float64)).T
     return np.exp(logs)
+
+
+def features_from_linear(intensity: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Log-opponent features (..., 3) of intensities ``(B', G', R')`` (..., 3) that include
+    ``LOG_OFFSET``: the inverse of :func:`linear_intensity`."""
+    return np.log(np.asarray(intensity, dtype=np.float64)) @ _OPPONENT.astype(np.float64).T
 
 
 def feature_pyramid(features: NDArray[np.float32], levels: int) -> list[NDArray[np.float32]]:

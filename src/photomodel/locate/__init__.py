@@ -8,6 +8,7 @@ from photomodel.locate._locate import (
     locate,
     locate_in_features,
     make_optimizer,
+    soft_score,
 )
 from photomodel.locate._overlay import draw_overlay
 from photomodel.locate._threshold import (
@@ -32,4 +33,5 @@ __all__ = [
     "locate_in_features",
     "make_optimizer",
     "save_threshold",
+    "soft_score",
 ]
