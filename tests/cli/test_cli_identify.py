@@ -149,3 +149,17 @@ def test_experiment_identify_bad_options(capsys, tmp_path: Path, extra: list[str
                                    *extra])
     assert code == 2 and expected in err and "Traceback" not in err
     assert not (tmp_path / "run").exists()
+
+
+def test_experiment_identify_records_which_code_ran_it(capsys, tmp_path: Path) -> None:
+    argv = ["experiment", "--identify", "--out", tmp_path / "run", "--garments", "No.5",
+            "--library", "No.5", "--conditions", "paper", "--trials", "1", "--negatives",
+            "empty", "--negative-trials", "1", "--workers", "1"]
+    code, out, err = _run(capsys, argv)
+    assert code == 0, err
+    runs = json.loads((tmp_path / "run" / "identify_runs.json").read_text())["runs"]
+    assert len(runs) == 1 and runs[0]["trials"] == 2 and runs[0]["commit"]
+    code, out, err = _run(capsys, argv)   # finished: resumed with nothing to run
+    assert code == 0, err
+    runs = json.loads((tmp_path / "run" / "identify_runs.json").read_text())["runs"]
+    assert len(runs) == 1

@@ -60,3 +60,28 @@ def test_plan_and_records_round_trip(tmp_path: Path) -> None:
     assert len(rows) == 1 and rows[0]["best_score"] == 0.8 and rows[0]["scores"] == {}
     with pytest.raises(ValueError, match="library"):
         IdentifyExperimentConfig(library=())
+
+
+def test_calibration_refuses_scores_of_other_code(tmp_path: Path) -> None:
+    """A finished run directory is resumed, not re-run: calibrating on it after the code
+    changed would store a threshold for the old scores."""
+    import json
+
+    from photomodel.errors import InputError
+    from photomodel.experiments import calibrate_from_records
+    from photomodel.experiments._identify import RUNS_FILE
+    from photomodel.experiments._run import run_metadata
+
+    for row in (_row("No.1", "No.1", 0.8, true_score=0.8), _row("No.3", "No.3", 0.7,
+                                                                 true_score=0.7),
+                _row("none", "No.3", 0.2, "empty"), _row("none", "No.1", 0.3, "no-target")):
+        _append(tmp_path / "identify.csv", row)
+    with pytest.raises(InputError, match="no record of which code"):
+        calibrate_from_records(tmp_path)
+    runs = tmp_path / RUNS_FILE
+    runs.write_text(json.dumps({"runs": [{"commit": "0123456789abcdef", "trials": 4}]}))
+    with pytest.raises(InputError, match="made at commit 0123456789"):
+        calibrate_from_records(tmp_path)
+    runs.write_text(json.dumps({"runs": [{"commit": run_metadata()["commit"], "trials": 4}]}))
+    threshold = calibrate_from_records(tmp_path)
+    assert 0.3 < threshold.min_score < 0.7

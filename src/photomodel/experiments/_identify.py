@@ -323,8 +323,36 @@ def run_identify_experiment(
         if progress is not None:
             progress(n_done, len(trials), str(row["trial_id"]))
     wall = time.perf_counter() - t0
+    if pending:
+        _record_run(out, len(pending), wall)
     summary = write_identify_report(out, config, wall_seconds=wall)
     return summary
+
+
+RUNS_FILE = "identify_runs.json"
+"""Which commit ran which records of a run directory: ``{"runs": [{"commit", "trials",
+"wall_seconds"}, ...]}``, one entry per command that added records."""
+
+
+def _record_run(out: Path, trials: int, wall_seconds: float) -> None:
+    path = out / RUNS_FILE
+    runs = _read_runs(out) or []
+    runs.append({"commit": run_metadata()["commit"], "trials": trials,
+                 "wall_seconds": wall_seconds})
+    write_config(path, {"runs": runs})   # atomic JSON
+
+
+def _read_runs(out: Path) -> list[dict[str, Any]] | None:
+    path = out / RUNS_FILE
+    if not path.exists():
+        return None
+    try:
+        runs = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read: {exc}") from None
+    if not isinstance(runs, dict) or not isinstance(runs.get("runs"), list):
+        raise InputError(path, "expected {\"runs\": [...]}")
+    return list(runs["runs"])
 
 
 # --- summary -----------------------------------------------------------------------------------
@@ -543,6 +571,16 @@ def calibrate_from_records(out: str | os.PathLike[str], *, max_false_accept: flo
     from photomodel.identify import Threshold, calibrate_threshold
 
     out = Path(out)
+    runs = _read_runs(out)
+    now = run_metadata()["commit"]
+    if runs is None:
+        raise InputError(out / RUNS_FILE, "not found: no record of which code made the scores; "
+                                          "calibrate on a new --out")
+    stale = sorted({str(r.get("commit")) for r in runs} - {now})
+    if stale:
+        raise InputError(out, f"holds scores made at commit {', '.join(c[:10] for c in stale)}, "
+                              f"not at {str(now)[:10]}: they may not be the scores of this code; "
+                              "calibrate on a new --out")
     rows = read_identify_records(out / "identify.csv")
     positives = [r["true_score"] if r["true_searched"] else 0.0 for r in rows
                  if r["truth"] != NONE]
