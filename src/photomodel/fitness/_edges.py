@@ -1,13 +1,13 @@
 """Outline evidence: how much of a model's outline both cameras see as an edge at a pose.
 
-The ``soft`` score is ``S_in - S_out``: the inner points' agreement minus the band's. Two
+The ``soft`` fitness is ``S_in - S_out``: the inner points' agreement minus the band's. Two
 kinds of scene score alike with it, and a cell must tell them apart:
 
 * the garment, half hidden by a gripper: the hidden half disagrees inside (``S_in`` about
-  0.6), the visible outline is sharp (score about 0.3);
+  0.6), the visible outline is sharp (fitness about 0.3);
 * a plain model laid inside a larger region of about its colour (a grey sock on a grey
   object): everything agrees inside and much of the band agrees too (``S_in`` 0.85-0.95,
-  score about 0.3-0.4).
+  fitness about 0.3-0.4).
 
 The outline tells them apart. Each inner-ring point has a band point just outside it
 (:attr:`~photomodel.fitness.ModelSamples.table_out`); the pair shows the model's edge when
@@ -16,7 +16,8 @@ garment there (``1 - a_out``). The evidence is the mean of ``a_in (1 - a_out)`` 
 pairs and both cameras, at the offsets the fitness found for the pose, with the inner ring's
 colour mixed with the band's as the fitness expects it (``SoftMatch.edge_mix``). A garment
 in full view scores about 0.7, a visible half about 0.5, a model lying in a region of its
-colour about 0.2-0.3 (measured on simulated scenes, see ``docs``).
+colour about 0.2-0.3 (the identification experiment's scenes). ``locate``'s score is the mean
+of the fitness and this evidence (:func:`~photomodel.locate.soft_score`).
 """
 
 from __future__ import annotations
@@ -86,9 +87,8 @@ def edge_evidence(fitness: SoftFitness, T_cam1_model: NDArray[np.float64]) -> fl
                                             + t * linear_intensity(x_out))
         e_in = x_in - expected
         e_out = x_out - s.f_out[pairs[ring]] - o
-        a_in = np.exp(-0.5 * (e_in[:, 0] ** 2 / m.sigma_l**2
-                              + (e_in[:, 1] ** 2 + e_in[:, 2] ** 2) / m.sigma_c**2))
-        a_out = np.exp(-0.5 * (e_out[:, 0] ** 2 / m.sigma_l**2
-                               + (e_out[:, 1] ** 2 + e_out[:, 2] ** 2) / m.sigma_c**2))
+        a_in, a_out = (np.exp(-0.5 * (e[:, 0] ** 2 / m.sigma_l**2
+                                      + (e[:, 1] ** 2 + e[:, 2] ** 2) / m.sigma_c**2))
+                       for e in (e_in, e_out))
         total += float(np.mean(np.where(ok_in & ok_out, a_in * (1.0 - a_out), 0.0)))
     return 0.5 * total
