@@ -274,3 +274,16 @@ def test_edge_mix_takes_the_depth_bias_off_a_dark_garment() -> None:
 def test_linear_intensity_inverts_log_opponent() -> None:
     bgr = np.random.default_rng(0).integers(0, 256, (7, 5, 3), dtype=np.uint8)
     np.testing.assert_allclose(linear_intensity(log_opponent(bgr)), bgr + 8.0, rtol=1e-5)
+
+
+def test_the_navy_trousers_are_found_at_their_depth() -> None:
+    """A plain garment's blur trades with its depth: with blurs sharper than a camera in
+    focus to choose from, No.2 settled 2.4 mm too far (PyramidConfig's candidates)."""
+    from photomodel.locate import locate
+    from photomodel.sim import scene_rng
+
+    model, rig, right, left, T_true, _ = _case("No.2")
+    result = locate(model, rig, right, left, rng=scene_rng(0, "search", "paper_No.2_0000"))
+    error = result.T_cam1_model[:3, 3] - T_true[:3, 3]
+    assert result.found and abs(error[2]) < 1.0, error
+    assert result.optics_blur_mm is not None and result.optics_blur_mm >= 0.5
