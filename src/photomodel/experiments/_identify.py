@@ -36,7 +36,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.errors import InputError
-from photomodel.experiments._run import config_changes, pool_stream, run_metadata, write_config
+from photomodel.experiments._run import (
+    config_changes,
+    pool_stream,
+    read_json,
+    run_metadata,
+    write_config,
+)
 from photomodel.experiments._trials import ExperimentConfig, _model
 from photomodel.geometry import in_plane_angle_rad
 
@@ -346,10 +352,7 @@ def _read_runs(out: Path) -> list[dict[str, Any]] | None:
     path = out / RUNS_FILE
     if not path.exists():
         return None
-    try:
-        runs = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"cannot read: {exc}") from None
+    runs = read_json(path)
     if not isinstance(runs, dict) or not isinstance(runs.get("runs"), list):
         raise InputError(path, "expected {\"runs\": [...]}")
     return list(runs["runs"])

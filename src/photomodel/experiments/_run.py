@@ -62,16 +62,21 @@ def run_metadata() -> dict[str, Any]:
                         "cpus": os.cpu_count(), "python": platform.python_version()}}
 
 
+def read_json(path: Path) -> Any:
+    """The JSON value of a run's file ``path``; a clear error when it cannot be read."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read: {exc}") from None
+
+
 def config_changes(path: Path, wanted: dict[str, Any],
                    ignore: tuple[str, ...] = ()) -> list[str] | None:
     """Keys whose values in the run's stored config ``path`` differ from ``wanted`` (sorted,
     ``ignore`` left out), or None when no config is stored yet."""
     if not path.exists():
         return None
-    try:
-        found = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"cannot read: {exc}") from None
+    found = read_json(path)
     return sorted(k for k in set(found) | set(wanted)
                   if found.get(k) != wanted.get(k) and k not in ignore)
 

@@ -31,6 +31,8 @@ _LUT = np.log(np.arange(256, dtype=np.float64) + LOG_OFFSET).astype(np.float32)
 _OPPONENT = np.array([[1 / 3, 1 / 3, 1 / 3],
                       [0.0, -1.0, 1.0],
                       [-1.0, 0.5, 0.5]], dtype=np.float32)
+_OPPONENT_64 = _OPPONENT.astype(np.float64)
+_LOGS_FROM_FEATURES = np.linalg.inv(_OPPONENT_64)
 
 
 def log_opponent(image_bgr: NDArray[np.uint8], smooth_sigma_px: float = 0.0
@@ -56,14 +58,13 @@ def log_opponent(image_bgr: NDArray[np.uint8], smooth_sigma_px: float = 0.0
 def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:
     """The intensities ``(B', G', R') = (B, G, R) + LOG_OFFSET`` (..., 3) of log-opponent
     features (..., 3): the inverse of :func:`log_opponent` before its rounding to uint8."""
-    logs = np.asarray(features, dtype=np.float64) @ np.linalg.inv(_OPPONENT.astype(np.float64)).T
-    return np.exp(logs)
+    return np.exp(np.asarray(features, dtype=np.float64) @ _LOGS_FROM_FEATURES.T)
 
 
 def features_from_linear(intensity: NDArray[np.floating]) -> NDArray[np.float64]:
     """Log-opponent features (..., 3) of intensities ``(B', G', R')`` (..., 3) that include
     ``LOG_OFFSET``: the inverse of :func:`linear_intensity`."""
-    return np.log(np.asarray(intensity, dtype=np.float64)) @ _OPPONENT.astype(np.float64).T
+    return np.log(np.asarray(intensity, dtype=np.float64)) @ _OPPONENT_64.T
 
 
 def feature_pyramid(features: NDArray[np.float32], levels: int) -> list[NDArray[np.float32]]:
