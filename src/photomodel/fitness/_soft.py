@@ -216,3 +216,42 @@ class SoftFitness:
                             self._table_out, self.edge_mix_fraction, self._lin_in, f, terms)
         self.last_terms = terms
         return f
+
+    def last_offsets(self) -> NDArray[np.float64]:
+        """Light offsets (2, 3), (o_l, o_a, o_b) of each camera, that the last call found for
+        its first pose."""
+        return self.last_terms[0, :, 3:6].copy()
+
+    def residual_weights(self) -> NDArray[np.float64]:
+        """Signed weight (N_in + N_out,) of each point's agreement in one camera's term:
+        ``1 / N_in`` inside, ``-1 / N_out`` in the band (see :meth:`residuals`)."""
+        n_in, n_out = len(self.samples.p_in), len(self.samples.p_out)
+        return np.concatenate([np.full(n_in, 1.0 / n_in), np.full(n_out, -1.0 / max(n_out, 1))])
+
+    def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Scaled colour residuals of transforms (P, 4, 4) at fixed light offsets (2, 3).
+
+        Returns ``r`` (P, 2, N_in + N_out, 3), inner points first, each channel divided by
+        its tolerance (a point's agreement is ``exp(-|r|^2 / 2)``), and ``ok`` (P, 2, N_in +
+        N_out), whether the sample fell inside the image. Own colours only (no palette).
+        """
+        from photomodel.fitness._soft_kernels import soft_residuals_kernel
+
+        if self.palette_weight > 0:
+            raise ValueError("residuals: defined for the own colours only (palette_weight 0)")
+        T = np.ascontiguousarray(np.asarray(T_cam1_model, dtype=np.float64).reshape(-1, 4, 4))
+        rig, s = self.features.rig, self.samples
+        n = len(s.p_in) + len(s.p_out)
+        r = np.empty((len(T), 2, n, 3))
+        ok = np.empty((len(T), 2, n), dtype=np.bool_)
+        inv_var_l, inv_var_c, _ = self._args
+        soft_residuals_kernel(np.ascontiguousarray(T[:, :3, :3]),
+                              np.ascontiguousarray(T[:, :3, 3]), rig.R, rig.T, self.K1,
+                              rig.cam1.distortion12, self.K2, rig.cam2.distortion12, s.p_in,
+                              s.f_in, s.p_out, s.f_out, self.features.pyramids[0][self.level],
+                              self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
+                              math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
+                              self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
+                              r, ok)
+        return r, ok

@@ -235,3 +235,64 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
                       img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
                       valid, band, band_ok, out_terms[p, 1])
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c, table_out,
+                      mix_t, lin_in, o, band, out_r, out_ok):  # pragma: no cover - compiled
+    """Residuals of one camera at fixed light offsets ``o``: ``out_r`` (N_in + N_out, 3)
+    the scaled colour differences (inner points first, then the band), ``out_ok`` whether
+    each sample fell inside the image. ``band`` (N_out, 3) is work space."""
+    n_in = p_in.shape[0]
+    sample = np.empty(3)
+    expected = np.empty(3)
+    gain = np.empty(3)
+    for k in range(3):
+        gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
+    for j in range(p_out.shape[0]):
+        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
+        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
+        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        ok = _bilinear(img, u, v, sample)
+        out_ok[n_in + j] = ok
+        for c in range(3):
+            band[j, c] = sample[c]
+        out_r[n_in + j, 0] = (sample[0] - f_out[j, 0] - o[0]) * scale_l
+        out_r[n_in + j, 1] = (sample[1] - f_out[j, 1] - o[1]) * scale_c
+        out_r[n_in + j, 2] = (sample[2] - f_out[j, 2] - o[2]) * scale_c
+    for j in range(n_in):
+        X = R[0, 0] * p_in[j, 0] + R[0, 1] * p_in[j, 1] + t[0]
+        Y = R[1, 0] * p_in[j, 0] + R[1, 1] * p_in[j, 1] + t[1]
+        Z = R[2, 0] * p_in[j, 0] + R[2, 1] * p_in[j, 1] + t[2]
+        u, v = _project(X, Y, Z, K, D)
+        ok = _bilinear(img, u, v, sample)
+        out_ok[j] = ok
+        k = table_out[j]
+        if ok and mix_t > 0.0 and k >= 0 and out_ok[n_in + k]:
+            _edge_mixture(lin_in[j], gain, band[k], mix_t, expected)
+            for c in range(3):
+                expected[c] = sample[c] - expected[c]
+        else:
+            for c in range(3):
+                expected[c] = sample[c] - f_in[j, c] - o[c]
+        out_r[j, 0] = expected[0] * scale_l
+        out_r[j, 1] = expected[1] * scale_c
+        out_r[j, 2] = expected[2] * scale_c
+
+
+@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1,
+                          img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, out_r,
+                          out_ok):  # pragma: no cover - compiled
+    """Fill ``out_r`` (P, 2, N_in + N_out, 3) with both cameras' scaled colour residuals at
+    the fixed light offsets ``offsets`` (2, 3), and ``out_ok`` (P, 2, N_in + N_out) with
+    whether each sample fell inside its image."""
+    for p in prange(Rs.shape[0]):
+        R2, t2 = camera2_pose(Rs[p], ts[p], R21, T21)
+        band = np.empty((p_out.shape[0], 3))
+        _camera_residuals(Rs[p], ts[p], K1, D1, p_in, f_in, p_out, f_out, img1, scale_l,
+                          scale_c, table_out, mix_t, lin_in, offsets[0], band, out_r[p, 0],
+                          out_ok[p, 0])
+        _camera_residuals(R2, t2, K2, D2, p_in, f_in, p_out, f_out, img2, scale_l, scale_c,
+                          table_out, mix_t, lin_in, offsets[1], band, out_r[p, 1], out_ok[p, 1])

@@ -9,6 +9,11 @@ from photomodel.search._cmaes import CMAES, CMAConfig
 from photomodel.search._de import DEConfig, DifferentialEvolution
 from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
+from photomodel.search._gauss_newton import (
+    GaussNewtonConfig,
+    ResidualFitness,
+    gauss_newton_refine,
+)
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._pyramid import PyramidConfig, PyramidResult, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
@@ -29,6 +34,7 @@ __all__ = [
     "FullSearch",
     "FullSearchConfig",
     "GAConfig",
+    "GaussNewtonConfig",
     "GlobalThenLocal",
     "LocalCMA",
     "LocalCMAConfig",
@@ -39,8 +45,10 @@ __all__ = [
     "RealGA",
     "RealGAConfig",
     "RefineConfig",
+    "ResidualFitness",
     "SearchResult",
     "SearchSpace",
+    "gauss_newton_refine",
     "pyramid_search",
     "run_search",
 ]

@@ -13,10 +13,12 @@
    rarely does. Each hypothesis is refined by the ray-coordinate evolution strategy of
    :class:`~photomodel.search.LocalRefine`, whose growing steps walk in from tens of
    millimetres away.
-3. **Local** on each finer level down to level 0, over all six genes: CMA-ES in ray
-   coordinates (:class:`~photomodel.search.LocalCMA`), started from the previous level's
-   best, its steps scaled to the level's pixel size. It follows the ridge that couples tilt
-   with position to the peak, where ``LocalRefine`` stops short of it by degrees of tilt.
+3. **Local** on each finer level down to level 0, over all six genes: damped Gauss-Newton on
+   the colour residuals (:func:`~photomodel.search.gauss_newton_refine`, the default) or
+   CMA-ES in ray coordinates (:class:`~photomodel.search.LocalCMA`), started from the
+   previous level's best, steps scaled to the level's pixel size. Both follow the ridge that
+   couples tilt with position to the peak, where ``LocalRefine`` stops short of it by
+   degrees of tilt; Gauss-Newton in a tenth of CMA-ES's evaluations.
 4. **Optical blur**: before each local stage, the camera blur the model photo is given is
    the candidate whose fitness is highest at the current pose; after level 0 it is checked
    once more, and level 0 is refined again when the pose moved it. A print matches only
@@ -31,12 +33,18 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.search._base import SearchResult, run_search
 from photomodel.search._ga import BinaryGA, GAConfig
+from photomodel.search._gauss_newton import (
+    GaussNewtonConfig,
+    ResidualFitness,
+    gauss_newton_refine,
+)
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._refine import LocalRefine, RefineConfig
 from photomodel.search._space import SearchSpace
@@ -60,8 +68,17 @@ class PyramidConfig:
         conditions: 23 % fewer evaluations than any rise counting, the same successes).
     refine : RefineConfig
         The hypotheses' refinement (level 0 steps; level k uses steps 2**k times larger).
+    local_method : {"gauss-newton", "cma"}
+        The finer levels' refinement: :func:`~photomodel.search.gauss_newton_refine` with
+        ``gauss_newton`` or :class:`~photomodel.search.LocalCMA` with ``local``. On 96 scenes
+        (12 garments x 8 conditions) Gauss-Newton had 93 successes against CMA-ES's 90 (9
+        against 6 of 12 wrinkled garments, all others in both), the same median errors
+        (0.32 against 0.30 mm, 0.14 against 0.13 deg in paper, blur, gripper and overlap),
+        in 0.4-0.5x the time per stereo pair.
+    gauss_newton : GaussNewtonConfig
+        Level-0 settings of the Gauss-Newton refinement.
     local : LocalCMAConfig
-        The finer levels' refinement (level 0 steps, scaled the same way). It starts with
+        The CMA-ES refinement (level 0 steps, scaled the same way). It starts with
         0.6 steps and stops below 0.08: the previous level's best is that close (on the 96
         scenes: 2 % fewer evaluations and 12 % less time than 1 and 0.05, the same median
         errors).
@@ -104,6 +121,8 @@ class PyramidConfig:
                                                           min_improvement=0.003))
     refine: RefineConfig = field(default_factory=lambda: RefineConfig(
         population=24, max_iterations=60, min_step_fraction=0.1))
+    local_method: Literal["gauss-newton", "cma"] = "gauss-newton"
+    gauss_newton: GaussNewtonConfig = field(default_factory=GaussNewtonConfig)
     local: LocalCMAConfig = field(default_factory=lambda: LocalCMAConfig(sigma0=0.6, tolx=0.08))
     coarse_own_colours: bool = True
     finest_level: int = 0
@@ -117,6 +136,9 @@ class PyramidConfig:
         if not 0 <= self.finest_level < self.coarse_level:
             raise ValueError(f"finest_level: expected 0..{self.coarse_level - 1}, "
                              f"got {self.finest_level}")
+        if self.local_method not in ("gauss-newton", "cma"):
+            raise ValueError(f"local_method: expected 'gauss-newton' or 'cma', "
+                             f"got {self.local_method!r}")
 
     def for_retry(self) -> PyramidConfig:
         """These settings with ``retry_restarts`` GA restarts, run beside any seeds, for a
@@ -195,13 +217,13 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     for level in range(c.coarse_level - 2, c.finest_level - 1, -1):
         blur, objective, f0, used = _sharpest_fit(fitness_at, level, x, c, blur)
         evaluations += used
-        stages.append(_local_at(objective, f0, level, x, space, c.local, gen))
+        stages.append(_local_at(objective, f0, level, x, space, c, gen))
         x = stages[-1].x
     again, objective, f0, used = _sharpest_fit(fitness_at, c.finest_level, x, c, blur)
     evaluations += used
     if again != blur:
         blur = again
-        stages.append(_local_at(objective, f0, c.finest_level, x, space, c.local, gen))
+        stages.append(_local_at(objective, f0, c.finest_level, x, space, c, gen))
     last = stages[-1]
     fitness = last.fitness
     if c.finest_level > 0:    # the score is level 0's, as the threshold's
@@ -244,11 +266,16 @@ def _refine_at(objective: Fitness, level: int, x: NDArray[np.float64], space: Se
 
 
 def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
-              space: SearchSpace, local: LocalCMAConfig, gen: np.random.Generator
+              space: SearchSpace, config: PyramidConfig, gen: np.random.Generator
               ) -> SearchResult:
-    """:class:`LocalCMA` of ``objective`` (pyramid ``level``, ``f0`` at ``x``) from ``x``,
-    steps scaled by 2**level."""
-    return run_search(LocalCMA(space, x, f0, local.scaled(2.0**level), gen), objective)
+    """The finer levels' refinement of ``objective`` (pyramid ``level``, ``f0`` at ``x``)
+    from ``x``: ``config.local_method``, steps scaled by 2**level."""
+    if config.local_method == "gauss-newton":
+        if not isinstance(objective, ResidualFitness):
+            raise TypeError("local_method 'gauss-newton' needs a fitness with residuals "
+                            "(SoftFitness)")
+        return gauss_newton_refine(objective, x, space, level, config.gauss_newton)
+    return run_search(LocalCMA(space, x, f0, config.local.scaled(2.0**level), gen), objective)
 
 
 def _distinct(xs: list[NDArray[np.float64]], space: SearchSpace,

@@ -1,0 +1,132 @@
+"""Gauss-Newton refinement: the residuals behind it, and its walk to the peak."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
+from photomodel.fitness import SoftFitness, StereoFeatures
+from photomodel.geometry import eps_from_rotation, pose_vectors_to_matrices
+from photomodel.search import (
+    GaussNewtonConfig,
+    PyramidConfig,
+    ResidualFitness,
+    SearchSpace,
+    gauss_newton_refine,
+)
+from photomodel.search._pyramid import _local_at
+
+SPACE = SearchSpace.from_ranges()
+
+
+class LinearResiduals:
+    """A fitness of the ``soft`` form whose residuals are linear in the pose:
+    ``r_j = B_j (x - target)`` in pixel-like units, mean agreement of 200 points."""
+
+    def __init__(self, target: np.ndarray, seed: int = 0) -> None:
+        rng = np.random.default_rng(seed)
+        unit = np.array([1.0, 1.0, 0.2, 800.0, 800.0, 400.0])   # mm and eps to ~pixels
+        self.B = rng.normal(size=(200, 3, 6)) * unit / 3.0
+        self.target = target
+        self.calls = 0
+
+    def _r(self, poses: np.ndarray) -> np.ndarray:
+        return np.einsum("nij,pj->pni", self.B, poses - self.target)
+
+    def __call__(self, poses: np.ndarray) -> np.ndarray:
+        self.calls += len(poses)
+        return np.exp(-0.5 * np.sum(self._r(poses) ** 2, axis=-1)).mean(axis=1)
+
+    def last_offsets(self) -> np.ndarray:
+        return np.zeros((2, 3))
+
+    def residuals(self, T: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        poses = np.concatenate([T[:, :3, 3], np.stack([eps_from_rotation(M) for M in T])], 1)
+        r = self._r(poses)
+        return np.stack([r, r], axis=1), np.ones((len(r), 2, r.shape[1]), dtype=bool)
+
+    def residual_weights(self) -> np.ndarray:
+        return np.full(200, 1.0 / 200)
+
+
+TARGET = np.array([37.0, -52.0, 702.0, 0.03, -0.02, 0.21])
+
+
+def test_gauss_newton_solves_linear_residuals_in_a_few_steps() -> None:
+    fitness = LinearResiduals(TARGET)
+    assert isinstance(fitness, ResidualFitness)
+    x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    result = gauss_newton_refine(fitness, x0, SPACE)
+    np.testing.assert_allclose(result.x[:3], TARGET[:3], atol=0.02)
+    np.testing.assert_allclose(result.x[3:], TARGET[3:], atol=2e-5)
+    assert result.fitness > 0.999 and result.iterations <= 8
+    assert result.stop_reason == "gauss-newton: converged"
+    # One Jacobian (seven residual poses) per accepted step, every fitness call counted.
+    assert result.evaluations == fitness.calls + 7 * result.iterations
+
+
+def test_gauss_newton_moves_only_the_free_genes_and_never_falls_below_its_start() -> None:
+    fitness = LinearResiduals(TARGET, seed=1)
+    x0 = TARGET + np.array([0.5, 0.3, 1.0, 0.0007, 0.0, 0.0])
+    free = np.array([True, True, True, False, False, True])
+    result = gauss_newton_refine(fitness, x0, SPACE, free=free)
+    np.testing.assert_array_equal(result.x[~free], x0[~free])
+    assert result.fitness >= float(fitness(x0[None])[0])
+    at_peak = gauss_newton_refine(fitness, TARGET, SPACE)
+    np.testing.assert_allclose(at_peak.x, TARGET, atol=1e-9)
+    assert at_peak.fitness == pytest.approx(1.0)
+
+
+@lru_cache(maxsize=2)
+def _case(garment: str):
+    config = ExperimentConfig(garments=(garment,), conditions=("paper",), trials=1, seed=0)
+    model, rig, right, left, T, _ = trial_inputs(
+        config, Trial(f"paper_{garment}_0000", garment, "paper", 0))
+    return model, StereoFeatures(rig, right, left), T
+
+
+@pytest.mark.parametrize("level", [0, 1])
+def test_residuals_give_the_fitness_at_the_offsets_the_fitness_found(level: int) -> None:
+    """Residuals at the light offsets of a full evaluation reproduce each camera's term,
+    the edge mixture of the inner ring included."""
+    model, features, T = _case("No.1")
+    fitness = SoftFitness(model, features, level)
+    assert fitness.edge_mix_fraction > 0
+    poses = np.stack([T, T @ pose_vectors_to_matrices([[1.5, -1.0, 3.0, 0.01, 0, 0.02]])[0]])
+    fitness.evaluate_transforms(poses)
+    for p in range(2):
+        offsets = fitness.last_terms[p, :, 3:6]
+        r, ok = fitness.residuals(poses[p:p + 1], offsets)
+        agreement = np.exp(-0.5 * np.sum(r[0] ** 2, axis=-1)) * ok[0]
+        agreement[:, len(fitness.samples.p_in):] += ~ok[0, :, len(fitness.samples.p_in):]
+        term = agreement @ fitness.residual_weights()   # a band point off the image agrees 1
+        penalty = features.match.wb_weight * (offsets[:, 1] ** 2 + offsets[:, 2] ** 2)
+        np.testing.assert_allclose(term - penalty, fitness.last_terms[p, :, 0], atol=1e-9)
+
+
+def test_gauss_newton_refines_a_rendered_garment_from_a_pixel_away() -> None:
+    model, features, T = _case("No.1")
+    fitness = SoftFitness(model, features, 0)
+    truth = np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
+    f_truth = float(fitness(truth[None])[0])
+    for seed in range(2):
+        kick = np.random.default_rng(seed).normal(size=6) * [0.5, 0.5, 1.5, 0.002, 0.002, 0.001]
+        result = gauss_newton_refine(fitness, truth + kick, SPACE)
+        M = pose_vectors_to_matrices(result.x)[0]
+        assert np.linalg.norm(M[:3, 3] - T[:3, 3]) < 0.5
+        angle = np.degrees(np.arccos(np.clip((np.trace(M[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)))
+        assert angle < 0.5
+        assert result.fitness >= f_truth - 0.005 and result.evaluations < 200
+
+
+def test_the_pyramid_names_its_local_methods() -> None:
+    with pytest.raises(ValueError, match="local_method"):
+        PyramidConfig(local_method="newton")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="residuals"):
+        _local_at(lambda x: np.zeros(len(x)), 0.0, 0, TARGET, SPACE, PyramidConfig(),
+                  np.random.default_rng(0))
+    with pytest.raises(ValueError, match="difference_steps"):
+        GaussNewtonConfig(difference_steps=(0.1,) * 5)
