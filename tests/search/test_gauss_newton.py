@@ -130,3 +130,30 @@ def test_the_pyramid_names_its_local_methods() -> None:
                   np.random.default_rng(0))
     with pytest.raises(ValueError, match="difference_steps"):
         GaussNewtonConfig(difference_steps=(0.1,) * 5)
+
+
+class KinkedPeak(LinearResiduals):
+    """Residuals that point at ``target`` while the fitness itself peaks, with a kink, at
+    ``start``: no Gauss-Newton step is accepted."""
+
+    def __init__(self, target: np.ndarray, start: np.ndarray) -> None:
+        super().__init__(target)
+        self.start = start
+
+    def __call__(self, poses: np.ndarray) -> np.ndarray:
+        self.calls += len(poses)
+        return -np.abs((poses - self.start) / [1, 1, 1, 1e-3, 1e-3, 1e-3]).sum(axis=1)
+
+
+def test_a_stalled_gauss_newton_hands_over_to_cma() -> None:
+    start = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    fitness = KinkedPeak(TARGET, start)
+    stalled = gauss_newton_refine(fitness, start, SPACE)
+    assert stalled.stop_reason == "gauss-newton: no ascent step" and stalled.iterations == 0
+    np.testing.assert_array_equal(stalled.x, start)
+    rng = np.random.default_rng(0)
+    handed = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(), rng)
+    assert handed.stop_reason.startswith("gauss-newton: no ascent step, then local cma")
+    assert handed.evaluations > stalled.evaluations and handed.fitness >= stalled.fitness
+    alone = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(stalled_to_cma=False), rng)
+    assert alone.stop_reason == "gauss-newton: no ascent step"
