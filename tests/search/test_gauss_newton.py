@@ -157,3 +157,18 @@ def test_a_stalled_gauss_newton_hands_over_to_cma() -> None:
     assert handed.evaluations > stalled.evaluations and handed.fitness >= stalled.fitness
     alone = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(stalled_to_cma=False), rng)
     assert alone.stop_reason == "gauss-newton: no ascent step"
+
+
+def test_gauss_newton_refines_level_0_and_cma_level_1_by_default() -> None:
+    fitness = LinearResiduals(TARGET)
+    x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    f0 = float(fitness(x0[None])[0])
+    rng = np.random.default_rng(0)
+    assert _local_at(fitness, f0, 0, x0, SPACE, PyramidConfig(), rng).stop_reason.startswith(
+        "gauss-newton")
+    assert _local_at(fitness, f0, 1, x0, SPACE, PyramidConfig(), rng).stop_reason.startswith(
+        "local cma")
+    both = PyramidConfig(gauss_newton_max_level=1)
+    assert _local_at(fitness, f0, 1, x0, SPACE, both, rng).stop_reason.startswith("gauss-newton")
+    every = PyramidConfig(local_method="cma")
+    assert _local_at(fitness, f0, 0, x0, SPACE, every, rng).stop_reason.startswith("local cma")
