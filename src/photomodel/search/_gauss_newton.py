@@ -12,7 +12,7 @@ takes the step ``(H + lambda diag H)^-1 g`` and keeps it when the full fitness (
 free) rises; else ``lambda`` grows and the step shrinks towards the gradient.
 
 ``J`` comes from forward differences of the residuals, one pose per gene (bilinear samples of
-smoothed images: a difference of a twentieth of a pixel is the local slope), all seven poses
+smoothed images: a difference of a fortieth of a pixel is the local slope), all seven poses
 in one kernel call. An iteration costs seven residual evaluations and one or two of the
 fitness, and 4-10 iterations converge from a pixel or two away: measured on 48 scenes
 (paper, blur, gripper, overlap) against :class:`~photomodel.search.LocalCMA` on pyramid
