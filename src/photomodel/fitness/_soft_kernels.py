@@ -33,6 +33,25 @@ def _bilinear(img, u, v, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _sample_point(R, t, K, D, x, y, img, out):  # pragma: no cover - compiled
+    """``out`` = the bilinear sample of ``img`` where the model-plane point ``(x, y)`` lies at
+    pose ``(R, t)`` through camera ``K``, ``D``; False when it falls outside the image."""
+    X = R[0, 0] * x + R[0, 1] * y + t[0]
+    Y = R[1, 0] * x + R[1, 1] * y + t[1]
+    Z = R[2, 0] * x + R[2, 1] * y + t[2]
+    u, v = _project(X, Y, Z, K, D)
+    return _bilinear(img, u, v, out)
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _light_gain(o, gain):  # pragma: no cover - compiled
+    """``gain`` = the factors of the light offsets ``o`` on the linear channels (B', G', R'):
+    exp of the offsets' log channels."""
+    for k in range(3):
+        gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
     """Squared colour distance of a feature difference (dl, da, db) after the offsets."""
     el = dl - o[0]
@@ -98,19 +117,11 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     o = np.zeros(3)
     n_valid = 0
     for j in range(p_out.shape[0]):
-        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
-        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
-        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
-        u, v = _project(X, Y, Z, K, D)
-        band_ok[j] = _bilinear(img, u, v, sample)
+        band_ok[j] = _sample_point(R, t, K, D, p_out[j, 0], p_out[j, 1], img, sample)
         for c in range(3):
             band[j, c] = sample[c]
     for j in range(n_in):
-        X = R[0, 0] * p_in[j, 0] + R[0, 1] * p_in[j, 1] + t[0]
-        Y = R[1, 0] * p_in[j, 0] + R[1, 1] * p_in[j, 1] + t[1]
-        Z = R[2, 0] * p_in[j, 0] + R[2, 1] * p_in[j, 1] + t[2]
-        u, v = _project(X, Y, Z, K, D)
-        ok = _bilinear(img, u, v, sample)
+        ok = _sample_point(R, t, K, D, p_in[j, 0], p_in[j, 1], img, sample)
         valid[j] = ok
         if ok:
             n_valid += 1
@@ -171,8 +182,7 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     if mix_t > 0.0:
         expected = np.empty(3)
         gain = np.empty(3)
-        for k in range(3):
-            gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
+        _light_gain(o, gain)
         for j in range(n_in):
             k = table_out[j]
             if valid[j] and k >= 0 and band_ok[k]:
@@ -247,14 +257,9 @@ def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_
     sample = np.empty(3)
     expected = np.empty(3)
     gain = np.empty(3)
-    for k in range(3):
-        gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
+    _light_gain(o, gain)
     for j in range(p_out.shape[0]):
-        X = R[0, 0] * p_out[j, 0] + R[0, 1] * p_out[j, 1] + t[0]
-        Y = R[1, 0] * p_out[j, 0] + R[1, 1] * p_out[j, 1] + t[1]
-        Z = R[2, 0] * p_out[j, 0] + R[2, 1] * p_out[j, 1] + t[2]
-        u, v = _project(X, Y, Z, K, D)
-        ok = _bilinear(img, u, v, sample)
+        ok = _sample_point(R, t, K, D, p_out[j, 0], p_out[j, 1], img, sample)
         out_ok[n_in + j] = ok
         for c in range(3):
             band[j, c] = sample[c]
@@ -262,11 +267,7 @@ def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_
         out_r[n_in + j, 1] = (sample[1] - f_out[j, 1] - o[1]) * scale_c
         out_r[n_in + j, 2] = (sample[2] - f_out[j, 2] - o[2]) * scale_c
     for j in range(n_in):
-        X = R[0, 0] * p_in[j, 0] + R[0, 1] * p_in[j, 1] + t[0]
-        Y = R[1, 0] * p_in[j, 0] + R[1, 1] * p_in[j, 1] + t[1]
-        Z = R[2, 0] * p_in[j, 0] + R[2, 1] * p_in[j, 1] + t[2]
-        u, v = _project(X, Y, Z, K, D)
-        ok = _bilinear(img, u, v, sample)
+        ok = _sample_point(R, t, K, D, p_in[j, 0], p_in[j, 1], img, sample)
         out_ok[j] = ok
         k = table_out[j]
         if ok and mix_t > 0.0 and k >= 0 and out_ok[n_in + k]:
