@@ -35,7 +35,10 @@ from photomodel.geometry import pose_vectors_to_matrices
 from photomodel.search._base import SearchResult
 from photomodel.search._space import SearchSpace
 
-__all__ = ["GaussNewtonConfig", "ResidualFitness", "gauss_newton_refine"]
+__all__ = ["NO_ASCENT", "GaussNewtonConfig", "ResidualFitness", "gauss_newton_refine"]
+
+NO_ASCENT = "gauss-newton: no ascent step"
+"""Stop reason of a refinement that accepted no step where it stopped (a kink or a peak)."""
 
 
 @runtime_checkable
@@ -137,7 +140,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                 break
             damping *= 4.0
         else:
-            reason = "gauss-newton: no ascent step"
+            reason = NO_ASCENT
             break
         x, f = candidate, value
         offsets = fitness.last_offsets()

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from photomodel.search._base import SearchResult, run_search
 from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
+    NO_ASCENT,
     GaussNewtonConfig,
     ResidualFitness,
     gauss_newton_refine,
@@ -289,21 +290,24 @@ def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
     """The finer levels' refinement of ``objective`` (pyramid ``level``, ``f0`` at ``x``)
     from ``x``: Gauss-Newton or ``LocalCMA`` as ``config`` says for ``level``, steps scaled
     by 2**level."""
-    if config.local_method == "gauss-newton" and level <= config.gauss_newton_max_level:
-        if not isinstance(objective, ResidualFitness):
-            raise TypeError("local_method 'gauss-newton' needs a fitness with residuals "
-                            "(SoftFitness)")
-        result = gauss_newton_refine(objective, x, space, level, config.gauss_newton)
-        if not (config.stalled_to_cma and result.stop_reason.endswith("no ascent step")):
-            return result
-        cma = run_search(LocalCMA(space, result.x, result.fitness,
-                                  config.local.scaled(2.0**level), gen), objective)
-        return SearchResult(cma.x, cma.fitness, result.evaluations + cma.evaluations,
-                            result.iterations + cma.iterations,
-                            f"{result.stop_reason}, then {cma.stop_reason}",
-                            np.concatenate([result.best_history, cma.best_history]),
-                            np.concatenate([result.mean_history, cma.mean_history]))
-    return run_search(LocalCMA(space, x, f0, config.local.scaled(2.0**level), gen), objective)
+    def cma_from(x0: NDArray[np.float64], f_x0: float) -> SearchResult:
+        return run_search(LocalCMA(space, x0, f_x0, config.local.scaled(2.0**level), gen),
+                          objective)
+
+    if not (config.local_method == "gauss-newton" and level <= config.gauss_newton_max_level):
+        return cma_from(x, f0)
+    if not isinstance(objective, ResidualFitness):
+        raise TypeError("local_method 'gauss-newton' needs a fitness with residuals "
+                        "(SoftFitness)")
+    result = gauss_newton_refine(objective, x, space, level, config.gauss_newton)
+    if not (config.stalled_to_cma and result.stop_reason == NO_ASCENT):
+        return result
+    cma = cma_from(result.x, result.fitness)
+    return SearchResult(cma.x, cma.fitness, result.evaluations + cma.evaluations,
+                        result.iterations + cma.iterations,
+                        f"{result.stop_reason}, then {cma.stop_reason}",
+                        np.concatenate([result.best_history, cma.best_history]),
+                        np.concatenate([result.mean_history, cma.mean_history]))
 
 
 def _distinct(xs: list[NDArray[np.float64]], space: SearchSpace,
