@@ -105,11 +105,34 @@ def test_scan_puts_a_covered_or_cluttered_garment_first(garment: str, condition:
     assert abs(dtheta) < 4.0
 
 
+def test_the_scan_keeps_its_kernels_and_shares_them_between_depths() -> None:
+    """A second scan of one model reuses the kernels' spectra and finds the same peaks; one
+    kernel set per depth (each depth at its own resolution) finds the same best peak."""
+    from photomodel.fitness import _scan
+
+    model, features, T_true = _case("No.6", "gripper")
+    space = SearchSpace.from_ranges()
+    first = scan_flat_poses(model, features, space.lower, space.upper)
+    kept = len(_scan._SPECTRA[id(model)])
+    assert kept == 3      # 9 depths, 3 per kernel set
+    again = scan_flat_poses(model, features, space.lower, space.upper)
+    assert len(_scan._SPECTRA[id(model)]) == kept
+    np.testing.assert_array_equal(first.poses, again.poses)
+    np.testing.assert_array_equal(first.scores, again.scores)
+    each = scan_flat_poses(model, features, space.lower, space.upper,
+                           ScanConfig(depths_per_kernel=1)).poses[0]
+    for best in (first.poses[0], each):
+        ray_error = best[:2] / best[2] - T_true[:2, 3] / T_true[2, 3]
+        assert np.linalg.norm(ray_error) * T_true[2, 3] < 15.0, ray_error
+
+
 def test_scan_config_rejects_bad_values() -> None:
     with pytest.raises(ValueError, match="ScanConfig"):
         ScanConfig(theta_step_deg=0.0)
     with pytest.raises(ValueError, match="ScanConfig"):
         ScanConfig(hypotheses=4, candidates=3)
+    with pytest.raises(ValueError, match="ScanConfig"):
+        ScanConfig(depths_per_kernel=0)
     model, features, _ = _case("No.1")
     space = SearchSpace.from_ranges()
     with pytest.raises(ValueError, match="level"):

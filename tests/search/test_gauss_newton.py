@@ -172,3 +172,26 @@ def test_gauss_newton_refines_levels_0_and_1_by_default_and_cma_above() -> None:
         "local cma")
     every = PyramidConfig(local_method="cma")
     assert _local_at(fitness, f0, 0, x0, SPACE, every, rng).stop_reason.startswith("local cma")
+
+
+def test_hypotheses_that_walked_to_one_peak_go_on_once() -> None:
+    """After the coarse level: best first, a repeat of a better one dropped, and one more
+    than ``hypothesis_margin`` below the best dropped."""
+    from photomodel.search._base import SearchResult
+    from photomodel.search._pyramid import _survivors
+
+    space = SearchSpace.from_ranges()
+
+    def result(x: list[float], fitness: float) -> SearchResult:
+        return SearchResult(np.array(x), fitness, 10, 1, "", np.zeros(1), np.zeros(1))
+
+    peak = [10.0, 20.0, 700.0, 0.0, 0.0, 0.1]
+    near = [12.0, 21.0, 703.0, 0.0, 0.0, 0.105]     # within 2 % of every range
+    other = [-150.0, 20.0, 700.0, 0.0, 0.0, 0.1]
+    weak = [150.0, -100.0, 600.0, 0.0, 0.0, -0.2]
+    kept = _survivors([result(near, 0.61), result(other, 0.50), result(peak, 0.62),
+                       result(weak, 0.30)], space, margin=0.2)
+    np.testing.assert_array_equal(np.array(kept), np.array([peak, other]))
+    assert len(_survivors([result(weak, 0.30), result(peak, 0.62)], space, np.inf)) == 2
+    with pytest.raises(ValueError, match="hypothesis_margin"):
+        PyramidConfig(hypothesis_margin=-0.1)

@@ -8,7 +8,8 @@
    garment, not as a print's repeat.
 2. **Hypotheses**: every seed, the best pose of every GA restart and the overall best are
    refined on the coarse level with the garment's own colours (``coarse_own_colours``),
-   then on the next level; the best of them goes on. The palette fitness can rank a wrong
+   then, those near the best and distinct (``hypothesis_margin``), on the next level; the
+   best of them goes on. The palette fitness can rank a wrong
    peak first (a print colour close to the table's), the finer level with own colours
    rarely does. Each hypothesis is refined by the ray-coordinate evolution strategy of
    :class:`~photomodel.search.LocalRefine`, whose growing steps walk in from tens of
@@ -130,6 +131,14 @@ class PyramidConfig:
     ga_with_seeds : bool
         Run the GA also when :func:`pyramid_search` is given seeds (else the seeds replace
         it).
+    hypothesis_margin : float
+        After the coarse level, only hypotheses within this of the best one's fitness go on
+        to the next level, and of those that walked to the same pose (every gene within 2 %
+        of its range) only the best. Three scan peaks often end on one garment: on 192
+        scenes (16 conditions), 63 % of the hypotheses go on without repeats, 30 % with the
+        margin too. Of the 702 hypotheses, one more than 0.2 below the best won at level 2
+        (a wrinkled towel; the best ended 6 mm from the truth, it 1 mm). 189/192
+        successes either way (188 with every hypothesis), 27 % fewer evaluations.
     """
 
     coarse_level: int = 3
@@ -150,11 +159,14 @@ class PyramidConfig:
     optics_blur_margin: float = 0.02
     retry_restarts: int = 8
     ga_with_seeds: bool = False
+    hypothesis_margin: float = 0.2
 
     def __post_init__(self) -> None:
         if not 0 <= self.finest_level < self.coarse_level:
             raise ValueError(f"finest_level: expected 0..{self.coarse_level - 1}, "
                              f"got {self.finest_level}")
+        if not self.hypothesis_margin >= 0:
+            raise ValueError(f"hypothesis_margin: expected >= 0, got {self.hypothesis_margin}")
         if self.local_method not in ("gauss-newton", "cma"):
             raise ValueError(f"local_method: expected 'gauss-newton' or 'cma', "
                              f"got {self.local_method!r}")
@@ -226,7 +238,7 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
         own = fitness_at(c.coarse_level, 0.0, blur)
         coarse = [_refine_at(own, c.coarse_level, x0, flat, c.refine, gen) for x0 in starts]
         stages.extend(coarse)
-        starts = [r.x for r in coarse]
+        starts = _survivors(coarse, space, c.hypothesis_margin)
     candidates = [_refine_at(fitness_at(level, 0.0, blur), level, x0, space, c.refine, gen)
                   for x0 in starts]
     best = max(candidates, key=lambda r: r.fitness)
@@ -308,6 +320,14 @@ def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
                         f"{result.stop_reason}, then {cma.stop_reason}",
                         np.concatenate([result.best_history, cma.best_history]),
                         np.concatenate([result.mean_history, cma.mean_history]))
+
+
+def _survivors(results: list[SearchResult], space: SearchSpace, margin: float
+               ) -> list[NDArray[np.float64]]:
+    """The refined hypotheses worth the next level: best first, without near-repeats (they
+    walked to the same peak), none more than ``margin`` below the best."""
+    ranked = sorted(results, key=lambda r: -r.fitness)
+    return _distinct([r.x for r in ranked if r.fitness >= ranked[0].fitness - margin], space)
 
 
 def _distinct(xs: list[NDArray[np.float64]], space: SearchSpace,
