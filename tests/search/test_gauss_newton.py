@@ -152,11 +152,40 @@ def test_a_stalled_gauss_newton_hands_over_to_cma() -> None:
     assert stalled.stop_reason == "gauss-newton: no ascent step" and stalled.iterations == 0
     np.testing.assert_array_equal(stalled.x, start)
     rng = np.random.default_rng(0)
-    handed = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(), rng)
+    handed = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(stalled_to_cma=True), rng)
     assert handed.stop_reason.startswith("gauss-newton: no ascent step, then local cma")
     assert handed.evaluations > stalled.evaluations and handed.fitness >= stalled.fitness
-    alone = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(stalled_to_cma=False), rng)
+    alone = _local_at(fitness, 0.0, 0, start, SPACE, PyramidConfig(), rng)
     assert alone.stop_reason == "gauss-newton: no ascent step"
+
+
+class MisledResiduals(LinearResiduals):
+    """Residuals whose gradient points away from the fitness's peak, as the ``soft``
+    fitness's held light offsets can where the band's agreement moves them (a plain
+    garment): they see the peak at ``decoy``."""
+
+    def __init__(self, target: np.ndarray, decoy: np.ndarray) -> None:
+        super().__init__(target)
+        self.decoy = decoy
+
+    def residuals(self, T: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        true_target, self.target = self.target, self.decoy
+        try:
+            return super().residuals(T, offsets)
+        finally:
+            self.target = true_target
+
+
+def test_a_stall_takes_the_gradient_from_the_fitness_itself() -> None:
+    x0 = TARGET + np.array([0.3, -0.2, 1.0, 0.0004, -0.0003, 0.0003])
+    fitness = MisledResiduals(TARGET, decoy=2 * x0 - TARGET)
+    blind = gauss_newton_refine(fitness, x0, SPACE,
+                                config=GaussNewtonConfig(difference_on_stall=False))
+    assert blind.stop_reason == "gauss-newton: no ascent step" and blind.iterations == 0
+    result = gauss_newton_refine(fitness, x0, SPACE)
+    assert np.all(np.abs(result.x[:3] - TARGET[:3]) <= [0.05, 0.05, 0.25]), result.x
+    np.testing.assert_allclose(result.x[3:], TARGET[3:], atol=5e-5)
+    assert result.fitness > 0.99
 
 
 def test_gauss_newton_refines_levels_0_and_1_by_default_and_cma_above() -> None:
