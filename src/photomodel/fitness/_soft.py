@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -213,7 +214,8 @@ class SoftFitness:
                             rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
                             rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
                             self.palette, self.palette_weight, img1, img2, *self._args,
-                            self._table_out, self.edge_mix_fraction, self._lin_in, f, terms)
+                            self._table_out, self.edge_mix_fraction, self._lin_in,
+                            numba.get_num_threads(), f, terms)
         self.last_terms = terms
         return f
 
@@ -253,5 +255,5 @@ class SoftFitness:
                               self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
                               math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
                               self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
-                              r, ok)
+                              numba.get_num_threads(), r, ok)
         return r, ok

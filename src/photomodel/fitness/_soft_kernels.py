@@ -225,25 +225,32 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, palette,
                         palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
-                        table_out, mix_t, lin_in, out_f, out_terms):  # pragma: no cover - compiled
+                        table_out, mix_t, lin_in, lanes,
+                        out_f, out_terms):  # pragma: no cover - compiled
     """Fill ``out_f`` (P,) with the fitness and ``out_terms`` (P, 2, 6) with each camera's
-    (F_c, S_in agreement, S_out agreement, offsets l, a, b)."""
+    (F_c, S_in agreement, S_out agreement, offsets l, a, b), on ``lanes`` threads (the
+    number of threads; each takes every ``lanes``-th (pose, camera) pair with its own work
+    space: a single pose's two cameras run side by side, 2x faster on two threads)."""
     n_in = p_in.shape[0]
-    for p in prange(Rs.shape[0]):
-        R1 = Rs[p]
-        t1 = ts[p]
-        R2, t2 = camera2_pose(R1, t1, R21, T21)
+    pairs = 2 * Rs.shape[0]    # (pose, camera) pairs: a single pose keeps two threads busy
+    lanes = min(lanes, pairs)
+    for lane in prange(lanes):     # work space once per thread
         buf = np.empty((n_in, 3))
         diff = np.empty((n_in, 3))
         valid = np.empty(n_in, dtype=np.bool_)
         band = np.empty((p_out.shape[0], 3))
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
-        _camera_terms(R1, t1, K1, D1, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img1, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
-                      valid, band, band_ok, out_terms[p, 0])
-        _camera_terms(R2, t2, K2, D2, p_in, f_in, p_out, f_out, palette, palette_weight,
-                      img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
-                      valid, band, band_ok, out_terms[p, 1])
+        for q in range(lane, pairs, lanes):
+            p = q // 2
+            if q % 2 == 0:
+                R, t, K, D, img = Rs[p], ts[p], K1, D1, img1
+            else:
+                R, t = camera2_pose(Rs[p], ts[p], R21, T21)
+                K, D, img = K2, D2, img2
+            _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
+                          inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
+                          valid, band, band_ok, out_terms[p, q % 2])
+    for p in range(Rs.shape[0]):
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
 
 
@@ -284,16 +291,23 @@ def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1,
-                          img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, out_r,
-                          out_ok):  # pragma: no cover - compiled
+                          img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, lanes,
+                          out_r, out_ok):  # pragma: no cover - compiled
     """Fill ``out_r`` (P, 2, N_in + N_out, 3) with both cameras' scaled colour residuals at
     the fixed light offsets ``offsets`` (2, 3), and ``out_ok`` (P, 2, N_in + N_out) with
-    whether each sample fell inside its image."""
-    for p in prange(Rs.shape[0]):
-        R2, t2 = camera2_pose(Rs[p], ts[p], R21, T21)
+    whether each sample fell inside its image; (pose, camera) pairs on ``lanes`` threads as
+    in :func:`soft_fitness_kernel`."""
+    pairs = 2 * Rs.shape[0]    # (pose, camera) pairs
+    lanes = min(lanes, pairs)
+    for lane in prange(lanes):
         band = np.empty((p_out.shape[0], 3))
-        _camera_residuals(Rs[p], ts[p], K1, D1, p_in, f_in, p_out, f_out, img1, scale_l,
-                          scale_c, table_out, mix_t, lin_in, offsets[0], band, out_r[p, 0],
-                          out_ok[p, 0])
-        _camera_residuals(R2, t2, K2, D2, p_in, f_in, p_out, f_out, img2, scale_l, scale_c,
-                          table_out, mix_t, lin_in, offsets[1], band, out_r[p, 1], out_ok[p, 1])
+        for q in range(lane, pairs, lanes):
+            p = q // 2
+            if q % 2 == 0:
+                R, t, K, D, img = Rs[p], ts[p], K1, D1, img1
+            else:
+                R, t = camera2_pose(Rs[p], ts[p], R21, T21)
+                K, D, img = K2, D2, img2
+            _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c,
+                              table_out, mix_t, lin_in, offsets[q % 2], band, out_r[p, q % 2],
+                              out_ok[p, q % 2])
