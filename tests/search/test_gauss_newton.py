@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
@@ -224,3 +225,20 @@ def test_hypotheses_that_walked_to_one_peak_go_on_once() -> None:
     assert len(_survivors([result(weak, 0.30), result(peak, 0.62)], space, np.inf)) == 2
     with pytest.raises(ValueError, match="hypothesis_margin"):
         PyramidConfig(hypothesis_margin=-0.1)
+
+
+def test_an_unconverged_gauss_newton_hands_over_to_cma_above_level_0() -> None:
+    """A refinement still climbing after its iterations (a depth walked a pixel a step)
+    goes on with CMA-ES on level 1, not on level 0."""
+    fitness = LinearResiduals(TARGET)
+    x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    f0 = float(fitness(x0[None])[0])
+    short = PyramidConfig(gauss_newton=GaussNewtonConfig(max_iterations=1))
+    rng = np.random.default_rng(0)
+    level1 = _local_at(fitness, f0, 1, x0, SPACE, short, rng)
+    assert level1.stop_reason.startswith("gauss-newton: 1 iterations, then local cma")
+    level0 = _local_at(fitness, f0, 0, x0, SPACE, short, rng)
+    assert level0.stop_reason == "gauss-newton: 1 iterations"
+    off = replace(short, unconverged_to_cma=False)
+    unchanged = _local_at(fitness, f0, 1, x0, SPACE, off, rng)
+    assert unchanged.stop_reason == "gauss-newton: 1 iterations"
