@@ -108,6 +108,12 @@ def render_table(result: dict[str, Any]) -> str:
               f"{len(settings.get('garments', []))} garments, seed {meta.get('seed', '?')}, "
               f"commit `{str(meta.get('commit', '?'))[:10]}`. "
               "Source: `benchmarks/bench_locate.py`.")
+    first = settings.get("default_model_preparation", {}).get("first_pair_seconds_median")
+    if first is not None:
+        legend += (" Each model met its rig once before the timing pass, as the peer's model "
+                   "features are computed outside it: that first stereo pair builds the "
+                   "model's per-level samples and scan kernels and took "
+                   f"{1000 * first:.0f} ms (median).")
     return "\n".join(lines) + "\n" + legend + "\n"
 
 

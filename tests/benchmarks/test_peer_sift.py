@@ -129,6 +129,10 @@ def test_table_renders_a_row_per_condition() -> None:
     assert dim[-2].strip() == "3.14"
     assert rows[4].split("|")[1].strip() == "**all**"
     assert "seed 3" in table and "0123456789" in table
+    assert "first stereo pair" not in table
+    prepared = {**TINY, "settings": {**TINY["settings"], "default_model_preparation": {
+        "first_pair_seconds_median": 0.25}}}
+    assert "took 250 ms (median)" in locate_table.render_table(prepared)
 
 
 def test_table_replaces_only_the_readme_block(tmp_path: Path) -> None:
