@@ -8,7 +8,8 @@ For one stereo pair and a list of photo-models:
    images lack cannot be the answer; the ``max_candidates`` models with the most colour
    evidence (at least ``min_evidence``) go on. This costs milliseconds per model, where a
    pose search costs about a second.
-3. **Locate each candidate** with the default ``soft`` method
+3. **Locate each candidate** (those whose scan is trusted first; the others only while none
+   of those is found: ``trusted_first``) with the default ``soft`` method
    (:func:`~photomodel.locate.locate_in_features`: a correlation scan of flat poses on the
    coarsest level, then local refinement of its peaks down to level 0), each with its own
    seed derived from the call's seed, the model's name and the attempt (a model's search does
@@ -71,6 +72,13 @@ class IdentifyConfig:
         ``min_score``.
     screen : ScreenConfig
         Settings of the colour evidence.
+    trusted_first : bool
+        Search the candidates whose scan is trusted (its best peak reaches
+        ``ScanConfig.trusted_score``) first, and the others only while none of those reaches
+        ``min_score``. An untrusted scan means the model's own colours agree nowhere in the
+        images, and its search then runs the GA (about 0.4 s); under the station's light
+        that is a model that is not there. Under another lamp every scan is untrusted and
+        every candidate is searched, as without this.
     """
 
     min_score: float | None = None
@@ -78,6 +86,7 @@ class IdentifyConfig:
     min_evidence: float = 0.2
     retries: int = 1
     screen: ScreenConfig = field(default_factory=ScreenConfig)
+    trusted_first: bool = True
 
     def __post_init__(self) -> None:
         if self.min_score is not None and not 0.0 <= self.min_score <= 1.0:
@@ -225,6 +234,11 @@ def identify_in_features(
         for i in chosen:
             if i not in scans:
                 scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
+        order_now = sorted(chosen, key=lambda i: not (c.trusted_first and scans[i].trusted))
+        for i in order_now:
+            if (c.trusted_first and not scans[i].trusted and located
+                    and max(r.score for r in located.values()) >= min_score):
+                break    # a trusted candidate is found; the rest's colours agree nowhere
             r = locate_in_features(models[i], features, space=space,
                                    rng=_model_rng(base, models[i].name, attempt),
                                    min_score=min_score, t0=time.perf_counter(), retries=0,
