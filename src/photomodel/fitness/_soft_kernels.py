@@ -222,6 +222,17 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     out[5] = o[2]
 
 
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2):  # pragma: no cover
+    """Pose, intrinsics, distortion and image of (pose, camera) pair ``q``: pose ``q // 2``
+    seen by camera 1 (even ``q``) or camera 2 (odd)."""
+    p = q // 2
+    if q % 2 == 0:
+        return Rs[p], ts[p], K1, D1, img1
+    R, t = camera2_pose(Rs[p], ts[p], R21, T21)
+    return R, t, K2, D2, img2
+
+
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, palette,
                         palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
@@ -242,11 +253,7 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
         for q in range(lane, pairs, lanes):
             p = q // 2
-            if q % 2 == 0:
-                R, t, K, D, img = Rs[p], ts[p], K1, D1, img1
-            else:
-                R, t = camera2_pose(Rs[p], ts[p], R21, T21)
-                K, D, img = K2, D2, img2
+            R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
             _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
                           inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
                           valid, band, band_ok, out_terms[p, q % 2])
@@ -303,11 +310,7 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
         band = np.empty((p_out.shape[0], 3))
         for q in range(lane, pairs, lanes):
             p = q // 2
-            if q % 2 == 0:
-                R, t, K, D, img = Rs[p], ts[p], K1, D1, img1
-            else:
-                R, t = camera2_pose(Rs[p], ts[p], R21, T21)
-                K, D, img = K2, D2, img2
+            R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
             _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c,
                               table_out, mix_t, lin_in, offsets[q % 2], band, out_r[p, q % 2],
                               out_ok[p, q % 2])

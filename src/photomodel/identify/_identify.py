@@ -228,16 +228,19 @@ def identify_in_features(
     chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= c.min_evidence]
     located: dict[int, LocateResult] = {}
     scans: dict[int, ScanResult] = {}
+
+    def one_found() -> bool:
+        return bool(located) and max(r.score for r in located.values()) >= min_score
+
     for attempt in range(1 + c.retries):
-        if located and max(r.score for r in located.values()) >= min_score:
+        if one_found():
             break
         for i in chosen:
             if i not in scans:
                 scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
         order_now = sorted(chosen, key=lambda i: not (c.trusted_first and scans[i].trusted))
         for i in order_now:
-            if (c.trusted_first and not scans[i].trusted and located
-                    and max(r.score for r in located.values()) >= min_score):
+            if c.trusted_first and not scans[i].trusted and one_found():
                 break    # a trusted candidate is found; the rest's colours agree nowhere
             r = locate_in_features(models[i], features, space=space,
                                    rng=_model_rng(base, models[i].name, attempt),

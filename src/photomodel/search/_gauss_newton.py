@@ -43,7 +43,8 @@ from photomodel.geometry import pose_vectors_to_matrices
 from photomodel.search._base import SearchResult
 from photomodel.search._space import SearchSpace
 
-__all__ = ["NO_ASCENT", "GaussNewtonConfig", "ResidualFitness", "gauss_newton_refine"]
+__all__ = ["NO_ASCENT", "GaussNewtonConfig", "ResidualFitness", "gauss_newton_refine",
+           "out_of_iterations"]
 
 NO_ASCENT = "gauss-newton: no ascent step"
 """Stop reason of a refinement that accepted no step where it stopped (a kink or a peak)."""
@@ -136,7 +137,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     evaluations = 1
     history = [f]
     damping = c.damping0
-    reason = f"gauss-newton: {c.max_iterations} iterations"
+    reason = out_of_iterations(c)
     differenced = False     # the gradient from the fitness's own differences
     for _ in range(c.max_iterations):
         gradient, metric = _gradient_and_metric(fitness, x, h, offsets, weights, free)
@@ -172,6 +173,12 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
             break
     trace = np.asarray(history)
     return SearchResult(x, f, evaluations, len(history) - 1, reason, trace, trace)
+
+
+def out_of_iterations(config: GaussNewtonConfig) -> str:
+    """Stop reason of a refinement that spent ``config.max_iterations`` accepted steps
+    without converging (still climbing)."""
+    return f"gauss-newton: {config.max_iterations} iterations"
 
 
 def _fitness_gradient(fitness: ResidualFitness, x: NDArray[np.float64], f: float,

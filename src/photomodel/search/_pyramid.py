@@ -48,6 +48,7 @@ from photomodel.search._gauss_newton import (
     GaussNewtonConfig,
     ResidualFitness,
     gauss_newton_refine,
+    out_of_iterations,
 )
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._refine import LocalRefine, RefineConfig
@@ -324,7 +325,7 @@ def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
     result = gauss_newton_refine(objective, x, space, level, config.gauss_newton)
     stalled = config.stalled_to_cma and result.stop_reason == NO_ASCENT
     climbing = (config.unconverged_to_cma and level > 0
-                and result.stop_reason.endswith(" iterations"))
+                and result.stop_reason == out_of_iterations(config.gauss_newton))
     if not (stalled or climbing):
         return result
     cma = cma_from(result.x, result.fitness)
