@@ -306,3 +306,24 @@ def test_stereo_points_behind_a_camera_give_nan() -> None:
 def test_stereo_rejects_non_rotation(R: np.ndarray) -> None:
     with pytest.raises(ValueError, match="R"):
         StereoRig(_camera(DIST_5), _camera(DIST_5), R, np.zeros(3))
+
+
+def test_stereo_facing_plane_is_square_to_the_bisector_of_the_optical_axes() -> None:
+    rig = _rig()
+    R_face = rig.R_cam1_facing
+    np.testing.assert_allclose(R_face.T @ R_face, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R_face) == pytest.approx(1.0)
+    axis2_in_cam1 = rig.R.T @ np.array([0.0, 0.0, 1.0])
+    bisector = (np.array([0.0, 0.0, 1.0]) + axis2_in_cam1) / 2
+    np.testing.assert_allclose(R_face[:, 2], bisector / np.linalg.norm(bisector), atol=1e-12)
+    # Half the vergence from each optical axis; x is camera 1's x projected on the plane.
+    half = np.degrees(np.arccos(R_face[2, 2]))
+    vergence = np.degrees(np.arccos(axis2_in_cam1[2]))
+    assert half == pytest.approx(vergence / 2, abs=1e-9) and half > 4
+    assert np.cross([1.0, 0.0, 0.0], R_face[:, 2]) @ R_face[:, 0] == pytest.approx(0.0, abs=1e-12)
+    assert R_face[0, 0] > 0.99
+
+
+def test_stereo_facing_plane_of_parallel_cameras_is_square_to_camera_1() -> None:
+    rig = StereoRig(_camera(DIST_5), _camera(DIST_5), np.eye(3), np.array([-120.0, 0, 0]))
+    np.testing.assert_allclose(rig.R_cam1_facing, np.eye(3), atol=1e-12)

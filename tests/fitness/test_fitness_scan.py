@@ -16,9 +16,16 @@ from photomodel.fitness import (
     scan_flat_poses,
 )
 from photomodel.fitness._soft import level_spacing
-from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
+from photomodel.geometry import (
+    eps_from_rotation,
+    facing_pose_vectors,
+    flat_pose_vectors,
+    in_plane_angle_rad,
+    pose_vectors_to_matrices,
+)
 from photomodel.locate import locate
 from photomodel.search import PyramidConfig, SearchSpace, pyramid_search
+from photomodel.search._pyramid import _shift_sweep
 from photomodel.sim import scene_rng
 
 
@@ -73,7 +80,7 @@ def test_scan_scores_match_a_direct_sum() -> None:
         assert 0.75 * direct - 0.01 <= score <= direct + 0.01, (pose, score, direct)
 
 
-def test_scan_peaks_are_flat_distinct_sorted_and_in_the_box() -> None:
+def test_scan_peaks_face_the_rig_and_are_distinct_sorted_and_in_the_box() -> None:
     model, features, _ = _case("No.5")
     space = SearchSpace.from_ranges(x_mm=(-150.0, 150.0), theta_deg=30.0)
     config = ScanConfig(hypotheses=6)
@@ -82,9 +89,13 @@ def test_scan_peaks_are_flat_distinct_sorted_and_in_the_box() -> None:
     ranked = SoftFitness(model, features, config.level)(result.poses)
     assert np.all(np.diff(ranked) <= 0)
     assert np.all(space.contains(result.poses))
-    np.testing.assert_array_equal(result.poses[:, 3:5], 0.0)
+    # Lying on the plane that faces the rig, turned about its normal.
+    R_face = features.rig.R_cam1_facing
+    flat = flat_pose_vectors(result.poses, R_face)
+    np.testing.assert_allclose(facing_pose_vectors(flat, R_face), result.poses, atol=1e-12)
+    assert np.all(np.linalg.norm(result.poses[:, 3:5], axis=1) > 0.04)   # the rig converges
     rays = result.poses[:, :2] / result.poses[:, 2:3]
-    angles = 2 * np.arcsin(result.poses[:, 5])
+    angles = 2 * np.arcsin(flat[:, 5])
     for i in range(6):
         for j in range(i):
             assert (np.linalg.norm(rays[i] - rays[j]) > config.min_separation
@@ -200,3 +211,24 @@ def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
     assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0
     with pytest.raises(ValueError, match="finest_level"):
         PyramidConfig(finest_level=3)
+
+
+def test_the_shift_sweep_brings_a_stripe_repeat_back() -> None:
+    """A pose one stripe repeat off along the shirt's own y axis (a local peak of a striped
+    print) goes back to the garment's peak; from the peak the sweep stays."""
+    model, features, T_true = _case("No.4")
+    fitness = SoftFitness(model, features, 2)
+    R = T_true[:3, :3]
+    truth = np.concatenate([T_true[:3, 3], eps_from_rotation(R)])
+    space = SearchSpace.from_ranges()
+    for offset_mm in (10.0, -20.0):
+        off = truth.copy()
+        off[:3] += offset_mm * R[:, 1]
+        x, used = _shift_sweep(fitness, off, space, 30.0, 1.5)
+        assert used in (1 + 80 * 2, 1 + 80 * 3)   # f(off), a move, then none or one more
+        assert np.linalg.norm(x[:3] - truth[:3]) < 1.0, offset_mm
+        np.testing.assert_array_equal(x[3:], truth[3:])
+    f_true = float(fitness(truth[None])[0])
+    x, used = _shift_sweep(fitness, truth, space, 30.0, 1.5, f_true)
+    np.testing.assert_array_equal(x, truth)
+    assert used == 80

@@ -10,6 +10,8 @@ from scipy.spatial.transform import Rotation
 
 from photomodel.geometry import (
     eps_from_rotation,
+    facing_pose_vectors,
+    flat_pose_vectors,
     in_plane_angle_rad,
     invert_transform,
     make_transform,
@@ -243,3 +245,34 @@ def test_pose_vectors_to_matrices_batch_and_single() -> None:
 def test_pose_vectors_to_matrices_rejects_wrong_shape(shape: tuple[int, ...]) -> None:
     with pytest.raises(ValueError, match="poses"):
         pose_vectors_to_matrices(np.zeros(shape))
+
+
+# --- facing_pose_vectors / flat_pose_vectors ------------------------------------------------
+
+
+@SETTINGS
+@given(q=quats_wxyz(min_w=0.9), angle=st.floats(-3.0, 3.0))
+def test_facing_pose_vectors_lay_the_garment_on_the_plane(q: np.ndarray, angle: float) -> None:
+    R_face = _scipy_matrix(q)
+    flat = np.array([[12.0, -30.0, 650.0, 0.3, -0.2, np.sin(angle / 2)]])
+    pose = facing_pose_vectors(flat, R_face)
+    np.testing.assert_array_equal(pose[0, :3], flat[0, :3])
+    np.testing.assert_allclose(rotation_from_eps(pose[0, 3:]), R_face @ _rot_z(angle),
+                               atol=1e-12)
+    back = flat_pose_vectors(pose, R_face)
+    np.testing.assert_allclose(back, [[12.0, -30.0, 650.0, 0.0, 0.0, np.sin(angle / 2)]],
+                               atol=1e-12)
+
+
+def test_facing_pose_vectors_of_the_identity_are_the_flat_vectors() -> None:
+    flat = np.array([[1.0, 2.0, 600.0, 0.0, 0.0, 0.3], [0.0, 0.0, 700.0, 0.0, 0.0, -0.4]])
+    np.testing.assert_allclose(facing_pose_vectors(flat, np.eye(3)), flat, atol=1e-15)
+    np.testing.assert_allclose(flat_pose_vectors(flat, np.eye(3)), flat, atol=1e-15)
+
+
+def test_flat_pose_vectors_drop_the_tilt() -> None:
+    R_face = _rot_x(0.1)
+    tilted = np.array([[0.0, 0.0, 700.0, *eps_from_rotation(_rot_x(0.15) @ _rot_z(0.4))]])
+    flat = flat_pose_vectors(tilted, R_face)
+    assert flat[0, 3] == flat[0, 4] == 0.0
+    assert 2 * np.arcsin(flat[0, 5]) == pytest.approx(0.4, abs=2e-3)  # 0.05 rad of tilt left

@@ -38,6 +38,20 @@ class StereoRig:
         return make_transform(self.R, self.T)
 
     @property
+    def R_cam1_facing(self) -> NDArray[np.float64]:
+        """(3, 3) orientation of a plane that faces the rig, in camera 1's frame.
+
+        Its z axis is the bisector of the two optical axes (away from the cameras), its x axis
+        camera 1's x projected onto the plane, y = z x x. A converging rig sees a table it
+        faces tilted by half the vergence angle in each camera, not square to camera 1.
+        """
+        bisector = np.array([0.0, 0.0, 1.0]) + self.R[2]  # R.T[:, 2]: camera 2's axis
+        z = bisector / np.linalg.norm(bisector)
+        x = np.array([1.0, 0.0, 0.0]) - z[0] * z
+        x /= np.linalg.norm(x)
+        return np.stack([x, np.cross(z, x), z], axis=-1)
+
+    @property
     def cameras(self) -> tuple[PinholeCamera, PinholeCamera]:
         """(cam1, cam2)."""
         return self.cam1, self.cam2

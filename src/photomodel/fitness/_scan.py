@@ -33,7 +33,7 @@ from __future__ import annotations
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 
 from photomodel.fitness._samples import model_samples
 from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
+from photomodel.geometry import facing_pose_vectors
 from photomodel.model import PhotoModel
 
 _SPECTRA_PER_MODEL = 8
@@ -125,7 +126,8 @@ class ScanResult:
     Attributes
     ----------
     poses : ndarray (N, 6)
-        Pose vectors (x, y, z mm, eps1, eps2, eps3) with eps1 = eps2 = 0.
+        Pose vectors (x, y, z mm, eps1, eps2, eps3) of the garment lying flat on a plane
+        that faces the rig (:attr:`~photomodel.camera.StereoRig.R_cam1_facing`).
     scores : ndarray (N,)
         Their correlation scores: mean inner agreement minus mean band agreement, both
         cameras averaged (the ``soft`` fitness without light offsets, at grid resolution).
@@ -218,6 +220,8 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
                 peaks.append((score, float(z), float(thetas[angle]), *rays[v, u, :2]))
     peaks.sort(reverse=True)
     found = _distinct_peaks(peaks, lower, upper, c, len(zs) * len(thetas))
+    # The scan's grid is square to camera 1; a garment on the table faces the rig.
+    found = replace(found, poses=facing_pose_vectors(found.poses, rig.R_cam1_facing))
     if len(found.poses) <= c.hypotheses:
         return found
     fitness = SoftFitness(model, features, c.level)(found.poses)

@@ -2,6 +2,8 @@
 
 from photomodel.geometry._pose import (
     eps_from_rotation,
+    facing_pose_vectors,
+    flat_pose_vectors,
     in_plane_angle_rad,
     pose_vectors_to_matrices,
     quat_wxyz_from_matrix,
@@ -11,6 +13,8 @@ from photomodel.geometry._transforms import invert_transform, make_transform, tr
 
 __all__ = [
     "eps_from_rotation",
+    "facing_pose_vectors",
+    "flat_pose_vectors",
     "in_plane_angle_rad",
     "invert_transform",
     "make_transform",

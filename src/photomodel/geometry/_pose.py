@@ -62,3 +62,40 @@ def in_plane_angle_rad(R: ArrayLike) -> float:
     """Angle of the model x axis about camera 1's z axis: atan2(R[1, 0], R[0, 0]), radians."""
     R = np.asarray(R, dtype=np.float64)
     return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def facing_pose_vectors(flat: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np.float64]:
+    """Pose vectors (N, 6) of garments lying on a plane of orientation ``R_cam1_facing``.
+
+    Parameters
+    ----------
+    flat : array (N, 6)
+        *Flat* pose vectors ``(x, y, z, -, -, sin(theta / 2))``: position (mm) and in-plane
+        angle ``theta`` about the plane's normal; genes 4 and 5 are ignored.
+    R_cam1_facing : array (3, 3)
+        The plane's orientation in camera 1's frame (:attr:`StereoRig.R_cam1_facing`);
+        the identity gives the paper's flat poses, square to camera 1.
+
+    Returns
+    -------
+    ndarray (N, 6)
+        ``(x, y, z, eps)`` with rotation ``R_cam1_facing @ Rz(theta)``. In closed form (a
+        quaternion product): it runs on whole GA populations.
+    """
+    f = np.atleast_2d(np.asarray(flat, dtype=np.float64))
+    w0, a, b, c = quat_wxyz_from_matrix(R_cam1_facing)
+    s = f[:, 5]
+    ct = np.sqrt(np.clip(1.0 - s * s, 0.0, None))
+    q = np.stack([w0 * ct - c * s, a * ct + b * s, b * ct - a * s, w0 * s + c * ct], axis=-1)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return np.concatenate([f[:, :3], q[:, 1:]], axis=1)
+
+
+def flat_pose_vectors(poses: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np.float64]:
+    """Flat pose vectors (N, 6) ``(x, y, z, 0, 0, sin(theta / 2))`` of pose vectors (N, 6):
+    ``theta`` is the in-plane angle about the normal of the plane of orientation
+    ``R_cam1_facing``; the inverse of :func:`facing_pose_vectors` for poses on that plane."""
+    p = np.atleast_2d(np.asarray(poses, dtype=np.float64))
+    R = np.asarray(R_cam1_facing, dtype=np.float64).T @ rotation_from_eps(p[:, 3:])
+    theta = np.arctan2(R[:, 1, 0], R[:, 0, 0])
+    return np.column_stack([p[:, :3], np.zeros((len(p), 2)), np.sin(theta / 2)])

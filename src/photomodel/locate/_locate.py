@@ -294,7 +294,7 @@ def locate_in_features(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
             space, config if searches == 0 and not second_look else config.for_retry(),
-            rng=gen, seeds=scan.poses)
+            rng=gen, seeds=scan.poses, R_cam1_facing=features.rig.R_cam1_facing)
         searches += 1
         evaluations += attempt.evaluations
         edges = edge_evidence(SoftFitness(model, features, 0,

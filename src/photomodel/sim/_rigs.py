@@ -99,11 +99,6 @@ def hand_table_pose(rig: StereoRig, distance_mm: float = WORK_DISTANCE_MM) -> ND
     camera 1's x projected onto the table, y = z x x (so roughly camera 1's y). Camera 1 sees
     the table tilted by half the vergence angle about its y axis.
     """
-    R_cam1_cam2 = rig.R.T
-    centre2 = -R_cam1_cam2 @ rig.T  # camera 2's centre in camera 1's frame
-    bisector = np.array([0.0, 0.0, 1.0]) + R_cam1_cam2[:, 2]
-    z = bisector / np.linalg.norm(bisector)
-    x = np.array([1.0, 0.0, 0.0]) - z[0] * z
-    x /= np.linalg.norm(x)
-    origin = centre2 / 2 + distance_mm * z
-    return make_transform(np.stack([x, np.cross(z, x), z], axis=-1), origin)
+    R_cam1_table = rig.R_cam1_facing
+    centre2 = -rig.R.T @ rig.T  # camera 2's centre in camera 1's frame
+    return make_transform(R_cam1_table, centre2 / 2 + distance_mm * R_cam1_table[:, 2])
