@@ -45,7 +45,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.geometry import facing_pose_vectors, flat_pose_vectors, rotation_from_eps
-
 from photomodel.search._base import SearchResult, run_search
 from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
