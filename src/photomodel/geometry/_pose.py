@@ -64,7 +64,7 @@ def in_plane_angle_rad(R: ArrayLike) -> float:
     return float(np.arctan2(R[1, 0], R[0, 0]))
 
 
-def facing_pose_vectors(flat: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np.float64]:
+def facing_pose_vectors(flat: ArrayLike, facing: ArrayLike) -> NDArray[np.float64]:
     """Pose vectors (N, 6) of garments lying on a plane of orientation ``R_cam1_facing``.
 
     Parameters
@@ -72,9 +72,11 @@ def facing_pose_vectors(flat: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np
     flat : array (N, 6)
         *Flat* pose vectors ``(x, y, z, -, -, sin(theta / 2))``: position (mm) and in-plane
         angle ``theta`` about the plane's normal; genes 4 and 5 are ignored.
-    R_cam1_facing : array (3, 3)
-        The plane's orientation in camera 1's frame (:attr:`StereoRig.R_cam1_facing`);
-        the identity gives the paper's flat poses, square to camera 1.
+    facing : array (3, 3) or (4,)
+        The plane's orientation ``R_cam1_facing`` in camera 1's frame
+        (:attr:`StereoRig.R_cam1_facing`), or its ``quat_wxyz`` (the conversion costs more
+        than the rest on a GA population); the identity gives the paper's flat poses, square
+        to camera 1.
 
     Returns
     -------
@@ -83,12 +85,17 @@ def facing_pose_vectors(flat: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np
         quaternion product): it runs on whole GA populations.
     """
     f = np.atleast_2d(np.asarray(flat, dtype=np.float64))
-    w0, a, b, c = quat_wxyz_from_matrix(R_cam1_facing)
+    q_face = np.asarray(facing, dtype=np.float64)
+    w0, a, b, c = quat_wxyz_from_matrix(q_face) if q_face.shape == (3, 3) else q_face
     s = f[:, 5]
     ct = np.sqrt(np.clip(1.0 - s * s, 0.0, None))
-    q = np.stack([w0 * ct - c * s, a * ct + b * s, b * ct - a * s, w0 * s + c * ct], axis=-1)
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return np.concatenate([f[:, :3], q[:, 1:]], axis=1)
+    sign = np.where(w0 * ct - c * s < 0, -1.0, 1.0)    # the scalar part stays >= 0
+    out = np.empty((len(f), 6))
+    out[:, :3] = f[:, :3]
+    out[:, 3] = sign * (a * ct + b * s)
+    out[:, 4] = sign * (b * ct - a * s)
+    out[:, 5] = sign * (w0 * s + c * ct)
+    return out
 
 
 def flat_pose_vectors(poses: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np.float64]:

@@ -44,7 +44,12 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from photomodel.geometry import facing_pose_vectors, flat_pose_vectors, rotation_from_eps
+from photomodel.geometry import (
+    facing_pose_vectors,
+    flat_pose_vectors,
+    quat_wxyz_from_matrix,
+    rotation_from_eps,
+)
 from photomodel.search._base import SearchResult, run_search
 from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
@@ -258,9 +263,10 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     lo[3:5] = hi[3:5] = 0.0
     flat = SearchSpace(lo, hi)     # genes 4 and 5 unused: flat pose vectors
     facing = np.eye(3) if R_cam1_facing is None else np.asarray(R_cam1_facing, dtype=np.float64)
+    q_facing = quat_wxyz_from_matrix(facing)
 
     def on_plane(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return space.clip(facing_pose_vectors(x, facing))
+        return space.clip(facing_pose_vectors(x, q_facing))
 
     def flat_fitness(level: int, palette_weight: float) -> Fitness:
         objective = fitness_at(level, palette_weight, blur)
