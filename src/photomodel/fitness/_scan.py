@@ -30,6 +30,7 @@ image position or angle, are hypotheses for :func:`~photomodel.search.pyramid_se
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable
@@ -387,17 +388,18 @@ def _distinct_peaks(peaks: list[tuple[float, float, float, float, float]],
                     upper: NDArray[np.float64], c: ScanConfig, maps: int) -> ScanResult:
     """The best ``c.candidates`` peaks, distinct in camera ray or angle, inside the box, as
     pose vectors; trusted by the best one's score."""
-    kept: list[tuple[float, float, float, NDArray[np.float64]]] = []  # score, z, angle, ray
-    separation = np.deg2rad(c.min_angle_separation_deg)
-    for score, z, theta, ray_x, ray_y in peaks:
-        ray = np.array([ray_x, ray_y, 1.0])
-        if np.any(ray * z < lower[:3]) or np.any(ray * z > upper[:3]):
-            continue
-        if all(np.linalg.norm(ray[:2] - r[:2]) > c.min_separation or abs(theta - a) > separation
-               for _, _, a, r in kept):
-            kept.append((score, z, theta, ray))
-        if len(kept) >= c.candidates:
-            break
-    poses = np.array([[*(r * z), 0.0, 0.0, np.sin(a / 2)] for _, z, a, r in kept]).reshape(-1, 6)
+    p = np.asarray(peaks, dtype=np.float64).reshape(-1, 5)   # score, z, angle, ray x, ray y
+    xyz = np.column_stack([p[:, 3] * p[:, 1], p[:, 4] * p[:, 1], p[:, 1]])
+    inside = np.all((xyz >= lower[:3]) & (xyz <= upper[:3]), axis=1)
+    kept: list[tuple[float, float, float, float, float]] = []
+    separation = math.radians(c.min_angle_separation_deg)
+    for score, z, theta, ray_x, ray_y in p[inside].tolist():   # plain floats: a fast loop
+        if all(math.hypot(ray_x - kx, ray_y - ky) > c.min_separation
+               or abs(theta - a) > separation for _, _, a, kx, ky in kept):
+            kept.append((score, z, theta, ray_x, ray_y))
+            if len(kept) >= c.candidates:
+                break
+    poses = np.array([[rx * z, ry * z, z, 0.0, 0.0, math.sin(a / 2)]
+                      for _, z, a, rx, ry in kept]).reshape(-1, 6)
     scores = np.array([s for s, *_ in kept])
     return ScanResult(poses, scores, maps, bool(len(scores) and scores[0] >= c.trusted_score))

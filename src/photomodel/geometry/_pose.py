@@ -8,6 +8,9 @@ internally) does the conversions.
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
@@ -16,21 +19,29 @@ from scipy.spatial.transform import Rotation
 def rotation_from_eps(eps: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices (..., 3, 3) from quaternion vector parts ``eps`` (..., 3), |eps| <= 1.
 
-    Computed in closed form (no scipy call) because it runs on whole GA populations.
+    Computed in closed form by a numba kernel (no scipy call): it runs on whole GA
+    populations, about a thousand times a search.
     """
     e = np.asarray(eps, dtype=np.float64)
-    x, y, z = e[..., 0], e[..., 1], e[..., 2]
-    w = np.sqrt(np.clip(1.0 - (x * x + y * y + z * z), 0.0, None))
-    R = np.empty(e.shape[:-1] + (3, 3))
-    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    R[..., 0, 1] = 2 * (x * y - z * w)
-    R[..., 0, 2] = 2 * (x * z + y * w)
-    R[..., 1, 0] = 2 * (x * y + z * w)
-    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    R[..., 1, 2] = 2 * (y * z - x * w)
-    R[..., 2, 0] = 2 * (x * z - y * w)
-    R[..., 2, 1] = 2 * (y * z + x * w)
-    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    R = _rotations(np.ascontiguousarray(e.reshape(-1, 3)))
+    return R.reshape(e.shape[:-1] + (3, 3))
+
+
+@numba.njit(cache=True, nogil=True)
+def _rotations(e: NDArray[np.float64]) -> NDArray[np.float64]:  # pragma: no cover - numba
+    R = np.empty((e.shape[0], 3, 3))
+    for i in range(e.shape[0]):
+        x, y, z = e[i, 0], e[i, 1], e[i, 2]
+        w = math.sqrt(max(1.0 - (x * x + y * y + z * z), 0.0))
+        R[i, 0, 0] = 1 - 2 * (y * y + z * z)
+        R[i, 0, 1] = 2 * (x * y - z * w)
+        R[i, 0, 2] = 2 * (x * z + y * w)
+        R[i, 1, 0] = 2 * (x * y + z * w)
+        R[i, 1, 1] = 1 - 2 * (x * x + z * z)
+        R[i, 1, 2] = 2 * (y * z - x * w)
+        R[i, 2, 0] = 2 * (x * z - y * w)
+        R[i, 2, 1] = 2 * (y * z + x * w)
+        R[i, 2, 2] = 1 - 2 * (x * x + y * y)
     return R
 
 

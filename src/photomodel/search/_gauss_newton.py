@@ -202,7 +202,8 @@ def _gradient_and_metric(fitness: ResidualFitness, x: NDArray[np.float64],
     usable = ok.all(axis=0)                                          # (cameras, N)
     agreement = np.exp(-0.5 * np.sum(r[0] ** 2, axis=-1)) * usable
     w = agreement * weights[None] / r.shape[1]                       # camera mean
-    gradient = -np.einsum("cn,kcnd,cnd->k", w, jacobian[free], r[0])
+    J = jacobian[free].reshape(int(free.sum()), -1)                  # (k, cameras N 3)
+    gradient = -J @ (w[..., None] * r[0]).ravel()
     inner = np.where(weights[None] > 0, w, 0.0)
-    metric = np.einsum("cn,kcnd,lcnd->kl", inner, jacobian[free], jacobian[free])
+    metric = (J * np.repeat(inner.ravel(), r.shape[-1])) @ J.T      # BLAS, not einsum
     return gradient, metric

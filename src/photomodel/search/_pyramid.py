@@ -37,6 +37,7 @@ Each level's fitness is cheap in proportion to its samples (about 4x fewer per l
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
@@ -237,9 +238,11 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     ----------
     fitness_at : callable
         ``fitness_at(level, palette_weight, optics_blur_mm)`` returns the fitness of that
-        pyramid level with the model blurred by that camera blur.
+        pyramid level with the model blurred by that camera blur; it is called once for
+        each such triple, and the fitness reused.
     space : SearchSpace
-        Bounds of all stages; the global stage holds eps1 = eps2 = 0 (clipped into the box).
+        Bounds of all stages; the global stage and the coarse level hold the tilt of the
+        facing plane (``R_cam1_facing``; the poses are clipped into the box).
     config : PyramidConfig, optional
     rng : int, Generator or None
     seeds : sequence of ndarray (6,)
@@ -256,6 +259,7 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     """
     c = config or PyramidConfig()
     gen = np.random.default_rng(rng)
+    fitness_at = functools.cache(fitness_at)    # one object per (level, weight, blur)
     blur = c.optics_blur_mm
     starts = [space.clip(np.asarray(x, dtype=np.float64).reshape(6)) for x in seeds]
     stages: list[SearchResult] = []
@@ -294,7 +298,11 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
             starts = _distinct([x0 for x0, _ in swept], space)
             evaluations += sum(used for _, used in swept)
     objective = fitness_at(level, 0.0, blur)
-    candidates = [_refine_at(objective, level, x0, space, c.refine, gen) for x0 in starts]
+    if level <= c.gauss_newton_max_level:
+        candidates = [_local_at(objective, float(objective(x0[None])[0]), level, x0, space, c,
+                                gen) for x0 in starts]
+    else:
+        candidates = [_refine_at(objective, level, x0, space, c.refine, gen) for x0 in starts]
     best = max(candidates, key=lambda r: r.fitness)
     stages.extend(candidates)
     x = best.x
