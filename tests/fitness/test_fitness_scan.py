@@ -232,3 +232,27 @@ def test_the_shift_sweep_brings_a_stripe_repeat_back() -> None:
     x, used = _shift_sweep(fitness, truth, space, 30.0, 1.5, f_true)
     np.testing.assert_array_equal(x, truth)
     assert used == 80
+
+
+def test_the_scan_keeps_its_remap_grids_per_rig_and_depth() -> None:
+    """The per-depth grids depend on the rig and the box only: a second scan reuses them and
+    finds the same peaks; another rig gets its own."""
+    from dataclasses import replace
+
+    from photomodel.fitness import _scan
+
+    model, features, _ = _case("No.3")
+    space = SearchSpace.from_ranges()
+    _scan._GRIDS.clear()
+    first = scan_flat_poses(model, features, space.lower, space.upper)
+    depths = len(_scan._GRIDS)
+    assert depths >= 5
+    again = scan_flat_poses(model, features, space.lower, space.upper)
+    assert len(_scan._GRIDS) == depths
+    np.testing.assert_array_equal(again.poses, first.poses)
+    np.testing.assert_array_equal(again.scores, first.scores)
+    moved = StereoFeatures.__new__(StereoFeatures)
+    moved.__dict__.update(features.__dict__)
+    moved.rig = replace(features.rig, T=features.rig.T + np.array([1.0, 0.0, 0.0]))
+    scan_flat_poses(model, moved, space.lower, space.upper)
+    assert len(_scan._GRIDS) == 2 * depths

@@ -44,6 +44,7 @@ import scipy.fft
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from photomodel.camera import StereoRig
 from photomodel.fitness._samples import model_samples
 from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
 from photomodel.geometry import facing_pose_vectors
@@ -191,6 +192,8 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
               (samples.p_out[:, :2], label_out, -1.0 / len(label_out))]
     workers = numba.get_num_threads()
     peaks: list[tuple[float, float, float, float, float]] = []  # score, z, angle, ray x, y
+    rig_key = tuple(a.tobytes() for a in (rig.cam1.K, rig.cam1.dist, rig.cam2.K, rig.cam2.dist,
+                                           rig.R, rig.T))
     for first in range(0, len(zs), c.depths_per_kernel):
         # The group's depths are scanned on pinhole grids whose pixels are as large on the
         # garment as camera 1's are at the group's farthest depth: one set of kernels.
@@ -205,10 +208,7 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
             K_z = K1.copy()
             K_z[:2] *= z / z_ref
             h_z, w_z = int(np.ceil(h * z / z_ref)), int(np.ceil(w * z / z_ref))
-            rays = _pixel_rays(K_z, h_z, w_z)
-            P = (rays * z).reshape(-1, 3)
-            maps1 = _remap_maps(rig.cam1.project(P) * scale, h_z, w_z)
-            maps2 = _remap_maps(rig.cam2.project(P @ rig.R.T + rig.T) * scale, h_z, w_z)
+            rays, maps1, maps2 = _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))
             both = np.zeros((len(colours), *shape), dtype=np.float32)
             for i, (a1, a2) in enumerate(zip(agree1, agree2, strict=True)):
                 both[i, :h_z, :w_z] = 0.5 * (
@@ -264,6 +264,32 @@ def _agreement(image: NDArray[np.float32], colour: NDArray[np.float64],
     """``exp(-d^2 / 2)`` of every pixel's feature to ``colour`` (H, W) float32."""
     d2 = (((image - colour.astype(np.float32)) ** 2) * weights.astype(np.float32)).sum(axis=-1)
     return np.exp(-0.5 * d2).astype(np.float32)
+
+
+_GRIDS: OrderedDict[tuple[Any, ...], tuple[NDArray[np.float64], tuple[NDArray[np.float32], ...],
+                                             tuple[NDArray[np.float32], ...]]] = OrderedDict()
+_GRIDS_KEPT = 64
+
+
+def _depth_grids(rig: StereoRig, rig_key: tuple[bytes, ...], scale: float,
+                 K_z: NDArray[np.float64], h_z: int, w_z: int, z: float
+                 ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float32], ...],
+                            tuple[NDArray[np.float32], ...]]:
+    """The pixel rays (h_z, w_z, 3) of the pinhole grid ``K_z`` and the ``cv2.remap`` maps of
+    both cameras' images (pixels ``* scale``) onto it at depth ``z``: they depend on the rig
+    and the search box only, so the last ``_GRIDS_KEPT`` are kept (about 3 ms a scan)."""
+    key = (rig_key, scale, K_z.tobytes(), h_z, w_z, z)
+    if key in _GRIDS:
+        _GRIDS.move_to_end(key)
+        return _GRIDS[key]
+    rays = _pixel_rays(K_z, h_z, w_z)
+    P = (rays * z).reshape(-1, 3)
+    grids = (rays, _remap_maps(rig.cam1.project(P) * scale, h_z, w_z),
+             _remap_maps(rig.cam2.project(P @ rig.R.T + rig.T) * scale, h_z, w_z))
+    _GRIDS[key] = grids
+    while len(_GRIDS) > _GRIDS_KEPT:
+        _GRIDS.popitem(last=False)
+    return grids
 
 
 def _pixel_rays(K: NDArray[np.float64], h: int, w: int) -> NDArray[np.float64]:
