@@ -28,6 +28,25 @@ def _by_trial(records: dict[str, np.ndarray]) -> dict[str, dict[str, object]]:
             for i in order}
 
 
+def _assert_same_records(got: dict[str, dict[str, object]],
+                         expected: dict[str, dict[str, object]]) -> None:
+    """The same trials with the same values: text and counts exactly, floats to 1e-9.
+
+    A run in worker processes with freshly compiled numba kernels (a clean checkout) has
+    shown differences in the last bits of the final pose (1e-13 mm) against the same trial
+    in the test process; the searches took the same steps.
+    """
+    assert sorted(got) == sorted(expected)
+    for trial, row in expected.items():
+        assert sorted(got[trial]) == sorted(row), trial
+        for column, value in row.items():
+            if isinstance(value, (float, np.floating)):
+                np.testing.assert_allclose(got[trial][column], value, rtol=1e-9, atol=1e-9,
+                                           err_msg=f"{trial} {column}")
+            else:
+                assert got[trial][column] == value, (trial, column)
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, object]]:
     out = tmp_path_factory.mktemp("reference")
@@ -57,7 +76,7 @@ def test_an_interrupted_run_resumes_where_it_stopped(
     path.write_text("".join(lines[:-2]) + lines[-2][: len(lines[-2]) // 2])
     summary = run_experiment(tmp_path, CONFIG, workers=1)
     assert summary["trials_this_run"] == 2
-    assert _by_trial(read_records(path)) == reference
+    _assert_same_records(_by_trial(read_records(path)), reference)
     again = run_experiment(tmp_path, CONFIG, workers=1)
     assert again["trials_this_run"] == 0
     assert json.loads((tmp_path / "summary.json").read_text())["trials_total"] == 4
@@ -75,7 +94,7 @@ def test_local_processes_give_the_same_records(
         tmp_path: Path, reference: dict[str, dict[str, object]]) -> None:
     summary = run_experiment(tmp_path, CONFIG, workers=2)
     assert summary["executor"] == "2 local processes"
-    assert _by_trial(read_records(tmp_path / "records.csv")) == reference
+    _assert_same_records(_by_trial(read_records(tmp_path / "records.csv")), reference)
 
 
 def test_a_dask_local_cluster_gives_the_same_records(
@@ -86,7 +105,7 @@ def test_a_dask_local_cluster_gives_the_same_records(
             distributed.Client(cluster) as client:
         summary = run_experiment(tmp_path, CONFIG, scheduler=client)
     assert summary["executor"].startswith("dask")
-    assert _by_trial(read_records(tmp_path / "records.csv")) == reference
+    _assert_same_records(_by_trial(read_records(tmp_path / "records.csv")), reference)
 
 
 def test_a_simulated_dataset_gives_the_same_records_as_simulating(
@@ -99,7 +118,7 @@ def test_a_simulated_dataset_gives_the_same_records_as_simulating(
     on_files = ExperimentConfig(seed=CONFIG.seed, max_generations=CONFIG.max_generations,
                                 dataset=str(data))
     run_experiment(tmp_path / "run", on_files, workers=1)
-    assert _by_trial(read_records(tmp_path / "run" / "records.csv")) == reference
+    _assert_same_records(_by_trial(read_records(tmp_path / "run" / "records.csv")), reference)
 
 
 def test_more_trials_extend_a_study_and_keep_its_records(tmp_path: Path) -> None:

@@ -362,7 +362,7 @@ def _shift_sweep(objective: Fitness, x: NDArray[np.float64], space: SearchSpace,
         values = objective(poses)
         used += len(poses)
         i = int(np.argmax(values))
-        if not values[i] > f_x:
+        if not values[i] > f_x + 1e-9:    # a tie (or rounding) is no move
             break
         x, f_x = poses[i], float(values[i])
     return x, used
