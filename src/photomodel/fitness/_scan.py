@@ -242,14 +242,18 @@ def _cached(model: PhotoModel, key: tuple[Any, ...],
     if model_id not in _SPECTRA:
         _SPECTRA[model_id] = OrderedDict()
         weakref.finalize(model, _SPECTRA.pop, model_id, None)
-    spectra = _SPECTRA[model_id]
-    if key in spectra:
-        spectra.move_to_end(key)
+    return _kept(_SPECTRA[model_id], key, make, _SPECTRA_PER_MODEL)
+
+
+def _kept(store: OrderedDict[Any, Any], key: Any, make: Callable[[], Any], limit: int) -> Any:
+    """``store[key]``, made by ``make()`` when missing; the ``limit`` last used are kept."""
+    if key in store:
+        store.move_to_end(key)
     else:
-        spectra[key] = make()
-        while len(spectra) > _SPECTRA_PER_MODEL:
-            spectra.popitem(last=False)
-    return spectra[key]
+        store[key] = make()
+        while len(store) > limit:
+            store.popitem(last=False)
+    return store[key]
 
 
 def _nearest(colours: NDArray[np.float64], palette: NDArray[np.float64],
@@ -278,18 +282,14 @@ def _depth_grids(rig: StereoRig, rig_key: tuple[bytes, ...], scale: float,
     """The pixel rays (h_z, w_z, 3) of the pinhole grid ``K_z`` and the ``cv2.remap`` maps of
     both cameras' images (pixels ``* scale``) onto it at depth ``z``: they depend on the rig
     and the search box only, so the last ``_GRIDS_KEPT`` are kept (about 3 ms a scan)."""
-    key = (rig_key, scale, K_z.tobytes(), h_z, w_z, z)
-    if key in _GRIDS:
-        _GRIDS.move_to_end(key)
-        return _GRIDS[key]
-    rays = _pixel_rays(K_z, h_z, w_z)
-    P = (rays * z).reshape(-1, 3)
-    grids = (rays, _remap_maps(rig.cam1.project(P) * scale, h_z, w_z),
-             _remap_maps(rig.cam2.project(P @ rig.R.T + rig.T) * scale, h_z, w_z))
-    _GRIDS[key] = grids
-    while len(_GRIDS) > _GRIDS_KEPT:
-        _GRIDS.popitem(last=False)
-    return grids
+    def make() -> tuple[NDArray[np.float64], tuple[NDArray[np.float32], ...],
+                        tuple[NDArray[np.float32], ...]]:
+        rays = _pixel_rays(K_z, h_z, w_z)
+        P = (rays * z).reshape(-1, 3)
+        return (rays, _remap_maps(rig.cam1.project(P) * scale, h_z, w_z),
+                _remap_maps(rig.cam2.project(P @ rig.R.T + rig.T) * scale, h_z, w_z))
+
+    return _kept(_GRIDS, (rig_key, scale, K_z.tobytes(), h_z, w_z, z), make, _GRIDS_KEPT)
 
 
 def _pixel_rays(K: NDArray[np.float64], h: int, w: int) -> NDArray[np.float64]:

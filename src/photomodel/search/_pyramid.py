@@ -302,11 +302,7 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
             starts = _distinct([x0 for x0, _ in swept], space)
             evaluations += sum(used for _, used in swept)
     objective = fitness_at(level, 0.0, blur)
-    if level <= c.gauss_newton_max_level:
-        candidates = [_local_at(objective, float(objective(x0[None])[0]), level, x0, space, c,
-                                gen) for x0 in starts]
-    else:
-        candidates = [_refine_at(objective, level, x0, space, c.refine, gen) for x0 in starts]
+    candidates = [_refine_at(objective, level, x0, space, c.refine, gen) for x0 in starts]
     best = max(candidates, key=lambda r: r.fitness)
     stages.extend(candidates)
     x = best.x
