@@ -12,7 +12,9 @@ from photomodel.fitness import (
     ScanConfig,
     SoftFitness,
     StereoFeatures,
+    light_offset_candidates,
     model_samples,
+    relight_scan,
     scan_flat_poses,
 )
 from photomodel.fitness._soft import level_spacing
@@ -189,12 +191,51 @@ def test_a_small_garment_is_not_tilted_on_the_coarse_level() -> None:
 
 def test_the_scan_is_not_trusted_under_another_lamp() -> None:
     """Without light offsets a warm lamp leaves the garment's own colours nowhere: the best
-    score falls below ``trusted_score`` and ``locate`` runs its GA beside the peaks."""
+    score falls below ``trusted_score`` (and ``locate`` would run its GA beside the peaks)."""
     space = SearchSpace.from_ranges()
     for condition, trusted in (("paper", True), ("warm-light", False)):
         model, features, _ = _case("No.4", condition)
         result = scan_flat_poses(model, features, space.lower, space.upper)
         assert result.trusted is trusted, (condition, result.scores[0])
+        assert np.array_equal(result.light_offsets, np.zeros((len(result.poses), 3)))
+
+
+@pytest.mark.parametrize(("garment", "condition"), [("No.4", "warm-light"), ("No.12", "dim")])
+def test_a_second_look_with_the_scenes_light_finds_the_garment(garment: str,
+                                                               condition: str) -> None:
+    """Relit with the offsets the scene's colours suggest, the scan trusts its peaks again,
+    one of them on the garment, scanned with the lamp's offset (a 3000 K lamp raises red
+    and yellow; 40 % light lowers the lightness)."""
+    space = SearchSpace.from_ranges()
+    model, features, T_true = _case(garment, condition)
+    assert not scan_flat_poses(model, features, space.lower, space.upper).trusted
+    result = relight_scan(model, features, space.lower, space.upper)
+    assert result is not None and result.trusted
+    assert relight_scan(model, features, space.lower, space.upper, ScanConfig(relight=0)) is None
+    assert np.min(np.linalg.norm(result.poses[:, :3] - T_true[:3, 3], axis=1)) < 30.0
+    best = result.light_offsets[0]
+    if condition == "warm-light":
+        assert best[1] > 0.1 and best[2] > 0.4, best
+    else:
+        assert best[0] < -0.2 and np.all(np.abs(best[1:]) < 0.15), best
+
+
+def test_light_offset_candidates_find_a_known_shift() -> None:
+    """A scene made of the model's colours shifted by a known offset, beside a table of
+    one other colour that covers most of it: the first candidate is that offset (to a
+    histogram bin), though the table holds most pixels."""
+    rng = np.random.default_rng(0)
+    colours = np.array([[4.0, 0.3, -0.2], [3.2, -0.4, 0.5], [4.6, 0.0, 0.0]])
+    model = colours[rng.integers(0, 3, 600)] + rng.normal(0, 0.02, (600, 3))
+    shift = np.array([-0.4, 0.3, 0.6])
+    garment = colours[rng.integers(0, 3, 800)] + shift + rng.normal(0, 0.02, (800, 3))
+    table = np.array([3.7, 0.1, 0.3]) + rng.normal(0, 0.02, (4000, 3))
+    image = np.concatenate([garment, table]).reshape(80, 60, 3)
+    found = light_offset_candidates(model, image, count=2)
+    assert len(found) == 2 and found[0][0] > found[1][0]
+    assert np.allclose(found[0][1], shift, atol=0.101), found[0]
+    with pytest.raises(ValueError, match="count"):
+        light_offset_candidates(model, image, count=0)
 
 
 def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:

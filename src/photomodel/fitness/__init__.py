@@ -4,9 +4,10 @@ the ``soft`` fitness (graded log-opponent colour, sub-pixel, over a feature pyra
 from photomodel.fitness._base import Fitness
 from photomodel.fitness._edges import edge_evidence
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
+from photomodel.fitness._light import light_offset_candidates
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
-from photomodel.fitness._scan import ScanConfig, ScanResult, scan_flat_poses
+from photomodel.fitness._scan import ScanConfig, ScanResult, relight_scan, scan_flat_poses
 from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, level_spacing
 
 __all__ = [
@@ -27,7 +28,9 @@ __all__ = [
     "hue_codes",
     "hue_codes_match",
     "level_spacing",
+    "light_offset_candidates",
     "make_fitness",
     "model_samples",
+    "relight_scan",
     "scan_flat_poses",
 ]

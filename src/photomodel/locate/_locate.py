@@ -17,6 +17,7 @@ from photomodel.fitness import (
     StereoFeatures,
     edge_evidence,
     make_fitness,
+    relight_scan,
     scan_flat_poses,
 )
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
@@ -254,16 +255,19 @@ def locate_in_features(
         from it.
     retries : int
         The first search starts from the peaks of
-        :func:`~photomodel.fitness.scan_flat_poses` and runs no GA unless the scan's best
-        score is too low to trust (``ScanConfig.trusted_score``). While the best score
-        stays below ``min_score``, it searches again, at most this many times, with the GA
-        beside the same peaks (continuing the random stream, with more restarts:
-        :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best. The scan
-        sees the garment as lit at the model station; a GA retry finds it under other light.
+        :func:`~photomodel.fitness.scan_flat_poses`. The scan sees the garment as lit at the
+        model station; when its best score is too low to trust
+        (``ScanConfig.trusted_score``), it looks again with the light offsets the scene's
+        colours suggest (:func:`~photomodel.fitness.relight_scan`), and only when that is
+        not trusted either does the first search run the GA beside the peaks. While the
+        best score stays below ``min_score``, it searches again, at most this many times,
+        with the GA beside the same peaks (continuing the random stream, with more
+        restarts: :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best.
         A scene without the garment costs ``1 + retries`` searches.
     scan : ScanResult, optional
         This model's :func:`~photomodel.fitness.scan_flat_poses` of ``features`` with
-        ``space``'s bounds, when the caller has it already (it is deterministic).
+        ``space``'s bounds, when the caller has it already (it is deterministic; an
+        untrusted one is relit here).
     second_look : bool
         The caller searched once already (``identify``'s second look): every search runs the
         retry configuration.
@@ -286,6 +290,8 @@ def locate_in_features(
     config = PyramidConfig()
     if scan is None:
         scan = scan_flat_poses(model, features, space.lower, space.upper)
+    if not scan.trusted:
+        scan = relight_scan(model, features, space.lower, space.upper) or scan
     if not scan.trusted:
         config = replace(config, ga_with_seeds=True)
     best_score = best_edges = -np.inf
