@@ -129,10 +129,14 @@ def test_the_model_blur_stays_on_the_garment() -> None:
     sharp = model_samples(model, level_spacing(0, optics_blur_mm=0.0))
     blurred = model_samples(model, level_spacing(0, optics_blur_mm=2.8))
     assert blurred.p_in is sharp.p_in  # one geometry for every blur
-    # The grey sock stays grey at its inner ring: the green backdrop would pull a to < 0.
+    # The grey sock stays grey at its inner ring: the green backdrop (a = ln R - ln G about
+    # -1) would pull a below the sharp ring's, whose outline pixels are part green already
+    # (the mask's edge lies where they are half garment).
     ring = slice(0, 200)
-    np.testing.assert_allclose(blurred.f_in[ring, 1:].mean(axis=0),
-                               sharp.f_in[ring, 1:].mean(axis=0), atol=0.02)
+    a_sharp, b_sharp = sharp.f_in[ring, 1:].mean(axis=0)
+    a_blurred, b_blurred = blurred.f_in[ring, 1:].mean(axis=0)
+    assert a_blurred >= a_sharp - 0.005, (a_blurred, a_sharp)
+    assert abs(a_blurred) < 0.03 and abs(b_blurred) < 0.03 and abs(b_sharp) < 0.03
 
 
 def test_pyramid_search_estimates_the_camera_blur() -> None:

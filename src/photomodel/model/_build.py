@@ -13,6 +13,13 @@ Steps, as in the paper, with the choices it leaves open written down:
    neither can be the plane).
 4. The mask is cleaned (opening 3x3, closing 5x5), reduced to its largest connected component
    and its holes are filled.
+   Its outline is then moved to where the photo is half garment, half plane (``mixing_edge``;
+   :func:`_mixing_edge`): the thresholds put a grey or dark garment's edge where the mix of
+   garment and green is past half garment, and the model came out a fraction of a pixel too
+   small on every side. On 12 paper scenes each (seed 0), the navy trousers' mean depth
+   error went from -0.31 to +0.02 mm (std x 0.06 -> 0.03 mm), the small T-shirt's std y from
+   0.029 to 0.008 mm, the grey sock's mean depth error from -1.78 to -1.31 mm (16 scenes);
+   192 mixed scenes: 189 against 188 successes, median position error 0.31 -> 0.18 mm.
 5. Pixels become millimetres on the plane through the model camera's intrinsics *and
    distortion* (exact inverse) and the camera-to-plane distance; the model frame's origin is the
    silhouette's area centroid on the plane (each pixel weighted by its area on the plane).
@@ -66,6 +73,7 @@ class BuildConfig:
     smooth_sigma_px: float = 1.0
     min_area_mm2: float = 400.0
     crop_margin_px: int = 8
+    mixing_edge: bool = True
 
     def __post_init__(self) -> None:
         for key, value in asdict(self).items():
@@ -151,6 +159,8 @@ def build_photo_model(
         | (hsv[..., 2] < cfg.dark_fraction * bg_val)
     ).astype(np.uint8)
     mask = _clean_mask(garment)
+    if cfg.mixing_edge and mask.any():
+        mask = _mixing_edge(mask, smooth_photo, _smooth(background_bgr, cfg.smooth_sigma_px))
 
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
     area_mm2 = mask.sum() / px_per_mm**2
@@ -238,6 +248,38 @@ def build_photo_model(
 
 def _smooth(image: NDArray[np.uint8], sigma_px: float) -> NDArray[np.uint8]:
     return cv2.GaussianBlur(image, (0, 0), sigma_px) if sigma_px > 0 else image
+
+
+def _mixing_edge(mask: NDArray[np.uint8], photo: NDArray[np.uint8],
+                 background: NDArray[np.uint8], reach_px: float = 3.0,
+                 min_contrast: float = 30.0) -> NDArray[np.uint8]:
+    """``mask`` with its outline moved to where the photo is half garment, half plane.
+
+    Near the outline (within ``reach_px``) each pixel's garment fraction is the projection
+    of (photo - plane) on (garment - plane): the plane's colour is the background photo's
+    at that pixel, the garment's the mean of the mask's pixels 2.5-6 px inside around it
+    (both smoothed alike, so a symmetric blur keeps the half-way point on the true edge).
+    Pixels where the two colours differ by less than ``min_contrast`` grey levels keep the
+    thresholds' answer. The hue and saturation thresholds put a grey sock's edge where the
+    mix is about 60 % sock (a grey-green mix keeps the plane's hue and saturation longer):
+    its model was 0.3 % too small, and ``locate`` put it 1.7 mm too near.
+    """
+    dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    core = ((dist_in >= 2.5) & (dist_in <= 6.0)).astype(np.float32)
+    img = photo.astype(np.float32)
+    plane = background.astype(np.float32)
+    weight = cv2.GaussianBlur(core, (0, 0), 3.0)
+    garment = cv2.GaussianBlur(img * core[..., None], (0, 0), 3.0) / np.maximum(
+        weight, 1e-6)[..., None]
+    contrast = garment - plane
+    norm2 = np.sum(contrast**2, axis=-1)
+    fraction = np.sum((img - plane) * contrast, axis=-1) / np.maximum(norm2, 1e-6)
+    near = ((dist_in <= reach_px) & (mask > 0)) | ((dist_out <= reach_px) & (mask == 0))
+    sure = near & (weight > 1e-3) & (norm2 >= min_contrast**2)
+    out = mask.copy()
+    out[sure] = fraction[sure] >= 0.5
+    return _clean_mask(out)
 
 
 def _clean_mask(garment: NDArray[np.uint8]) -> NDArray[np.uint8]:
