@@ -297,3 +297,21 @@ def test_the_scan_keeps_its_remap_grids_per_rig_and_depth() -> None:
     moved.rig = replace(features.rig, T=features.rig.T + np.array([1.0, 0.0, 0.0]))
     scan_flat_poses(model, moved, space.lower, space.upper)
     assert len(_scan._GRIDS) == 2 * depths
+
+
+def test_a_trusted_scan_drops_hypotheses_far_below_the_best() -> None:
+    """Each hypothesis costs an evolution strategy on level 3: a trusted scan keeps only
+    those within ``rank_margin`` of the best one's re-ranking fitness, best first."""
+    space = SearchSpace.from_ranges()
+    model, features, T_true = _case("No.1")
+    every = scan_flat_poses(model, features, space.lower, space.upper,
+                            ScanConfig(rank_margin=10.0))
+    assert every.trusted and len(every.poses) == ScanConfig().hypotheses
+    fitness = SoftFitness(model, features, ScanConfig().level)(every.poses)
+    assert np.all(np.diff(fitness) <= 0)
+    for margin in (0.0, 0.3):
+        kept = scan_flat_poses(model, features, space.lower, space.upper,
+                               ScanConfig(rank_margin=margin))
+        n = int(np.sum(fitness >= fitness[0] - margin))
+        np.testing.assert_array_equal(kept.poses, every.poses[:n])
+    assert np.linalg.norm(every.poses[0, :3] - T_true[:3, 3]) < 30.0

@@ -110,6 +110,12 @@ class ScanConfig:
     relight : int
         Light offsets guessed from the scene's colours that :func:`relight_scan` scans
         with when a scan is not trusted (0: none).
+    rank_margin : float
+        A trusted scan drops the hypotheses whose re-ranking fitness lies more than this
+        below the best one's: each costs an evolution strategy on level 3, and one that far
+        below has not won. 192 scenes of 16 conditions: the same 189 successes and median
+        errors with 0.3, median evaluations 830 -> 700 (544 with 0.15); 108 overlap,
+        gripper and distractor scenes: 108 either way.
     """
 
     level: int = 3
@@ -122,9 +128,11 @@ class ScanConfig:
     min_angle_separation_deg: float = 17.0
     trusted_score: float = 0.065
     relight: int = 2
+    rank_margin: float = 0.3
 
     def __post_init__(self) -> None:
-        if not (self.level >= 0 and self.relight >= 0 and self.theta_step_deg > 0
+        if not (self.level >= 0 and self.relight >= 0 and self.rank_margin >= 0
+                and self.theta_step_deg > 0
                 and self.z_step > 0 and 1 <= self.hypotheses <= self.candidates
                 and self.min_separation >= 0 and self.depths_per_kernel >= 1
                 and self.min_angle_separation_deg >= 0 and self.trusted_score >= 0):
@@ -293,6 +301,8 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
         return found
     fitness = SoftFitness(model, features, c.level)(found.poses)
     best = np.argsort(-fitness, kind="stable")[:c.hypotheses]
+    if found.trusted:
+        best = best[fitness[best] >= fitness[best[0]] - c.rank_margin]
     return ScanResult(found.poses[best], found.scores[best], found.maps, found.trusted,
                       found.light_offsets[best])
 
