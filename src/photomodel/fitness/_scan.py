@@ -219,21 +219,18 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
         scan is trusted (the garment's colours agree nowhere under any of them).
     """
     c = config or ScanConfig()
-    lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     samples = model_samples(model, level_spacing(c.level))
-    relit = [_scan(model, features, lower, upper, c, offset)
+    relit = [scan_flat_poses(model, features, lower, upper, c, light_offset=offset)
              for _, offset in light_offset_candidates(samples.f_in,
                                                       features.pyramids[0][c.level],
                                                       count=c.relight)] if c.relight else []
     relit = [r for r in relit if r.trusted]
     if not relit:
         return None
-    poses = np.concatenate([r.poses for r in relit])
-    fitness = SoftFitness(model, features, c.level)(poses)
-    best = np.argsort(-fitness, kind="stable")[:c.hypotheses]
-    return ScanResult(poses[best], np.concatenate([r.scores for r in relit])[best],
-                      sum(r.maps for r in relit), True,
-                      np.concatenate([r.light_offsets for r in relit])[best])
+    merged = ScanResult(np.concatenate([r.poses for r in relit]),
+                        np.concatenate([r.scores for r in relit]), sum(r.maps for r in relit),
+                        True, np.concatenate([r.light_offsets for r in relit]))
+    return _ranked(model, features, c, merged, margin=np.inf)
 
 
 def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
@@ -299,10 +296,17 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
                     light_offsets=np.tile(shift, (len(found.poses), 1)))
     if len(found.poses) <= c.hypotheses:
         return found
+    return _ranked(model, features, c, found,
+                   margin=c.rank_margin if found.trusted else np.inf)
+
+
+def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: ScanResult,
+            margin: float) -> ScanResult:
+    """The best ``c.hypotheses`` peaks of ``found`` by the scanned level's ``soft`` fitness
+    (light offsets free), without those more than ``margin`` below the best one's."""
     fitness = SoftFitness(model, features, c.level)(found.poses)
     best = np.argsort(-fitness, kind="stable")[:c.hypotheses]
-    if found.trusted:
-        best = best[fitness[best] >= fitness[best[0]] - c.rank_margin]
+    best = best[fitness[best] >= fitness[best[0]] - margin]
     return ScanResult(found.poses[best], found.scores[best], found.maps, found.trusted,
                       found.light_offsets[best])
 

@@ -142,7 +142,8 @@ def build_photo_model(
     if not distance_mm > 0:
         raise ValueError(f"distance_mm: expected a positive distance, got {distance_mm}")
     h, w = photo_bgr.shape[:2]
-    hsv_bg = bgr_to_hsv(_smooth(background_bgr, cfg.smooth_sigma_px))
+    smooth_background = _smooth(background_bgr, cfg.smooth_sigma_px)
+    hsv_bg = bgr_to_hsv(smooth_background)
     smooth_photo = _smooth(photo_bgr, cfg.smooth_sigma_px)
     hsv = bgr_to_hsv(smooth_photo)
 
@@ -160,7 +161,7 @@ def build_photo_model(
     ).astype(np.uint8)
     mask = _clean_mask(garment)
     if cfg.mixing_edge and mask.any():
-        mask = _mixing_edge(mask, smooth_photo, _smooth(background_bgr, cfg.smooth_sigma_px))
+        mask = _mixing_edge(mask, smooth_photo, smooth_background)
 
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
     area_mm2 = mask.sum() / px_per_mm**2
