@@ -24,6 +24,7 @@ from photomodel.geometry import (
     flat_pose_vectors,
     in_plane_angle_rad,
     pose_vectors_to_matrices,
+    strained_matrices,
 )
 from photomodel.locate import locate
 from photomodel.search import PyramidConfig, SearchSpace, pyramid_search
@@ -248,7 +249,9 @@ def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
                             PyramidConfig(finest_level=1), rng=0, seeds=seeds)
     assert [lv for lv, _ in asked].count(0) == 1 and "gauss-newton" in result.stop_reason
     level0 = SoftFitness(model, features, 0, optics_blur_mm=result.optics_blur_mm)
-    assert result.fitness == pytest.approx(level0(result.x[None])[0])
+    assert result.strain is not None    # the fitted strain, scored with the pose
+    at = strained_matrices(result.x, result.strain)
+    assert result.fitness == pytest.approx(level0.evaluate_transforms(at)[0])
     assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0
     with pytest.raises(ValueError, match="finest_level"):
         PyramidConfig(finest_level=3)

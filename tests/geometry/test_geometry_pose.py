@@ -18,6 +18,7 @@ from photomodel.geometry import (
     pose_vectors_to_matrices,
     quat_wxyz_from_matrix,
     rotation_from_eps,
+    strained_matrices,
     transform_points,
 )
 
@@ -276,3 +277,20 @@ def test_flat_pose_vectors_drop_the_tilt() -> None:
     flat = flat_pose_vectors(tilted, R_face)
     assert flat[0, 3] == flat[0, 4] == 0.0
     assert 2 * np.arcsin(flat[0, 5]) == pytest.approx(0.4, abs=2e-3)  # 0.05 rad of tilt left
+
+
+def test_strained_matrices_keep_the_pose_and_stretch_the_model_plane() -> None:
+    pose = np.array([[12.0, -30.0, 690.0, 0.02, -0.05, 0.3]])
+    np.testing.assert_array_equal(strained_matrices(pose, np.zeros(3)),
+                                  pose_vectors_to_matrices(pose))
+    A = strained_matrices(pose, [-0.02, 0.01, 0.005])[0]
+    T = pose_vectors_to_matrices(pose)[0]
+    # A model point (x, y, 0) lands where the pose puts ((I + E) (x, y), 0).
+    p = np.array([100.0, -40.0, 0.0, 1.0])
+    q = np.array([100.0 * 0.98 - 40.0 * 0.005, 100.0 * 0.005 - 40.0 * 1.01, 0.0, 1.0])
+    np.testing.assert_allclose(A @ p, T @ q, atol=1e-9)
+    U, _, Vt = np.linalg.svd(A[:3, :3])           # the rotation is the polar factor
+    np.testing.assert_allclose(U @ Vt, T[:3, :3], atol=1e-12)
+    np.testing.assert_array_equal(A[:3, 2:], T[:3, 2:])
+    both = strained_matrices(np.repeat(pose, 2, axis=0), [[0, 0, 0], [-0.02, 0.01, 0.005]])
+    np.testing.assert_array_equal(both[1], A)

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         caption = (f"{model.name}: {'found' if result.found else 'NOT found'}  score "
                    f"{result.score:.2f}  xyz {format_xyz(result)} mm  theta "
                    f"{result.theta_deg:.2f} deg")
-        write_image(args.overlay, draw_overlay(model, rig, right, left, result.T_cam1_model,
+        write_image(args.overlay, draw_overlay(model, rig, right, left, result.A_cam1_model,
                                                caption))
     if args.json:
         print(json.dumps(result.to_json_dict()))

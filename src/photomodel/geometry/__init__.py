@@ -8,6 +8,7 @@ from photomodel.geometry._pose import (
     pose_vectors_to_matrices,
     quat_wxyz_from_matrix,
     rotation_from_eps,
+    strained_matrices,
 )
 from photomodel.geometry._transforms import invert_transform, make_transform, transform_points
 
@@ -21,5 +22,6 @@ __all__ = [
     "pose_vectors_to_matrices",
     "quat_wxyz_from_matrix",
     "rotation_from_eps",
+    "strained_matrices",
     "transform_points",
 ]

@@ -57,6 +57,25 @@ def pose_vectors_to_matrices(poses: ArrayLike) -> NDArray[np.float64]:
     return T
 
 
+def strained_matrices(poses: ArrayLike, strain: ArrayLike) -> NDArray[np.float64]:
+    """Maps (N, 4, 4) of pose vectors (N, 6) whose model plane is strained by ``strain``.
+
+    ``strain`` (3,) or (N, 3) is the in-plane strain ``(e_xx, e_yy, e_xy)`` of the model
+    frame: a model point ``(x, y, 0)`` goes to ``(I + E) (x, y)`` before the pose, with ``E =
+    [[e_xx, e_xy], [e_xy, e_yy]]`` (symmetric: a rotation stays in the pose). Negative
+    strain shrinks the model (cloth gathered by wrinkles). The maps are not rigid; their
+    rotation is the pose vector's (the polar factor of ``R (I + E)`` for ``|E| < 1``).
+    """
+    T = pose_vectors_to_matrices(poses)
+    e = np.broadcast_to(np.asarray(strain, dtype=np.float64), (len(T), 3))
+    stretch = np.empty((len(T), 2, 2))
+    stretch[:, 0, 0] = 1.0 + e[:, 0]
+    stretch[:, 1, 1] = 1.0 + e[:, 1]
+    stretch[:, 0, 1] = stretch[:, 1, 0] = e[:, 2]
+    T[:, :3, :2] = T[:, :3, :2] @ stretch
+    return T
+
+
 def quat_wxyz_from_matrix(R: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion (4,) in (w, x, y, z) order with w >= 0 from a rotation (3, 3)."""
     x, y, z, w = Rotation.from_matrix(np.asarray(R, dtype=np.float64)[:3, :3]).as_quat()

@@ -20,7 +20,12 @@ from photomodel.fitness import (
     relight_scan,
     scan_flat_poses,
 )
-from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices, quat_wxyz_from_matrix
+from photomodel.geometry import (
+    in_plane_angle_rad,
+    pose_vectors_to_matrices,
+    quat_wxyz_from_matrix,
+    strained_matrices,
+)
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import (
@@ -91,6 +96,22 @@ class LocateResult:
         return float(np.rad2deg(in_plane_angle_rad(self.T_cam1_model[:3, :3])))
 
     @property
+    def strain(self) -> NDArray[np.float64] | None:
+        """In-plane strain ``(e_xx, e_yy, e_xy)`` of the model that the ``soft`` search fitted
+        with the pose (:func:`~photomodel.geometry.strained_matrices`), None for the other
+        fitnesses. Negative: the garment lies shorter along that model axis than in its
+        photo (gathered by wrinkles); -0.02 is 2 mm on 100 mm."""
+        strain = self.search.strain
+        return None if strain is None else np.asarray(strain, dtype=np.float64).copy()
+
+    @property
+    def A_cam1_model(self) -> NDArray[np.float64]:
+        """The affine map (4, 4) of model points into camera 1 that the score was measured
+        at: ``T_cam1_model`` with the fitted :attr:`strain` (``T_cam1_model`` without one).
+        The outline drawn on the images."""
+        return _affine(self.search)
+
+    @property
     def optics_blur_mm(self) -> float | None:
         """The camera blur the ``soft`` search estimated (Gaussian sigma, mm on the garment;
         about 0.86 mm per pixel at the working distance), None for the other fitnesses. A
@@ -114,6 +135,7 @@ class LocateResult:
             "generations": self.search.iterations,
             "stop_reason": self.search.stop_reason,
             "optics_blur_mm": self.optics_blur_mm,
+            "strain": None if self.strain is None else self.strain.tolist(),
             "edge_evidence": None if np.isnan(self.edge_evidence) else self.edge_evidence,
         }
 
@@ -305,7 +327,7 @@ def locate_in_features(
         evaluations += attempt.evaluations
         edges = edge_evidence(SoftFitness(model, features, 0,
                                           optics_blur_mm=attempt.optics_blur_mm),
-                              pose_vectors_to_matrices(attempt.x)[0])
+                              _affine(attempt))
         score = soft_score(attempt.fitness, edges)
         if score > best_score:
             best, best_score, best_edges = attempt, score, edges
@@ -316,6 +338,13 @@ def locate_in_features(
     T = pose_vectors_to_matrices(best.x)[0]
     return LocateResult(model.name, bool(best_score >= min_score), T, float(best.fitness),
                         best_score, time.perf_counter() - t0, best, best_edges)
+
+
+def _affine(search: SearchResult) -> NDArray[np.float64]:
+    """The map of model points into camera 1 at ``search``'s pose and strain."""
+    if search.strain is None:
+        return pose_vectors_to_matrices(search.x)[0]
+    return strained_matrices(search.x, search.strain)[0]
 
 
 def soft_score(fitness: float, edge_evidence: float) -> float:

@@ -30,6 +30,9 @@ class SearchResult:
         Why the search stopped.
     best_history, mean_history : ndarray (iterations,)
         Best-so-far and population-mean fitness per iteration.
+    strain : ndarray (3,) or None
+        In-plane strain ``(e_xx, e_yy, e_xy)`` of the model found with the pose
+        (:func:`~photomodel.geometry.strained_matrices`), for searches that fit one.
     """
 
     x: NDArray[np.float64]
@@ -39,6 +42,7 @@ class SearchResult:
     stop_reason: str
     best_history: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     mean_history: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    strain: NDArray[np.float64] | None = None
 
 
 class Optimizer(Protocol):

@@ -20,27 +20,28 @@ for the rest of the refinement; a stall after that is a peak (CMA-ES from there 
 fitness by less than 3e-4 on nine scenes, where it had raised it by up to 0.01 before).
 
 ``J`` comes from forward differences of the residuals, one pose per gene (bilinear samples of
-smoothed images: a difference of a fortieth of a pixel is the local slope), all seven poses
-in one kernel call. An iteration costs seven residual evaluations and one or two of the
-fitness, and 4-10 iterations converge from a pixel or two away: measured on 48 scenes
-(paper, blur, gripper, overlap) against :class:`~photomodel.search.LocalCMA` on pyramid
-levels 1 and 0, the same 48 successes and median errors (0.32 against 0.30 mm, 0.138 against
-0.131 deg) in 0.39x the time per stereo pair; on 48 more (wrinkles, warm light, tilt,
-distractors) 45 against 42 successes. Its basin is a few pixels wide: the coarse levels,
-where a hypothesis starts tens of millimetres away, keep :class:`~photomodel.search.LocalRefine`
-(with it on level 2 and 3 as well, 47/48).
-"""
+smoothed images: a difference of a fortieth of a pixel is the local slope), all seven poses in
+one kernel call (ten with the model's in-plane strain as three more genes: the residuals take
+any map of model points, :func:`~photomodel.geometry.strained_matrices`). An iteration costs
+seven residual evaluations and one or two of the fitness, and 4-10 iterations converge from a
+pixel or two away: measured on 48 scenes (paper, blur, gripper, overlap) against
+:class:`~photomodel.search.LocalCMA` on pyramid levels 1 and 0, the same 48 successes and
+median errors (0.32 against 0.30 mm, 0.138 against 0.131 deg) in 0.39x the time per stereo
+pair; on 48 more (wrinkles, warm light, tilt, distractors) 45 against 42 successes. Its basin
+is a few pixels wide: the coarse levels, where a hypothesis starts tens of millimetres away,
+keep :class:`~photomodel.search.LocalRefine` (with it on level 2 and 3 as well, 47/48). """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from photomodel.geometry import pose_vectors_to_matrices
+from photomodel.geometry import pose_vectors_to_matrices, strained_matrices
 from photomodel.search._base import SearchResult
 from photomodel.search._space import SearchSpace
 
@@ -56,6 +57,9 @@ class ResidualFitness(Protocol):
     """A fitness that also gives its residuals at held light offsets (``SoftFitness``)."""
 
     def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+    def evaluate_transforms(self, T_cam1_model: NDArray[np.float64]
+                            ) -> NDArray[np.float64]: ...
 
     def last_offsets(self) -> NDArray[np.float64]: ...
 
@@ -86,6 +90,10 @@ class GaussNewtonConfig:
     difference_on_stall : bool
         Where no step is accepted, go on with the gradient of the fitness's own forward
         differences before stopping (see the module docstring).
+    strain_step : float
+        Forward-difference step of the strain genes (1e-4: 0.01 mm on a 100 mm half-width).
+    max_strain : float
+        Largest strain component a refinement with strain may reach.
     """
 
     difference_steps: tuple[float, ...] = (0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5)
@@ -94,18 +102,23 @@ class GaussNewtonConfig:
     damping0: float = 1e-3
     max_damping: float = 1e4
     difference_on_stall: bool = True
+    strain_step: float = 1e-4
+    max_strain: float = 0.1
 
     def __post_init__(self) -> None:
         if len(self.difference_steps) != 6 or min(self.difference_steps) <= 0:
             raise ValueError("difference_steps: expected six positive steps")
         if self.max_iterations < 1 or not 0 < self.damping0 < self.max_damping:
             raise ValueError("expected max_iterations >= 1 and 0 < damping0 < max_damping")
+        if not (self.strain_step > 0 and 0 < self.max_strain < 1):
+            raise ValueError("expected strain_step > 0 and 0 < max_strain < 1")
 
 
 def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                         space: SearchSpace, level: int = 0,
                         config: GaussNewtonConfig | None = None,
-                        free: NDArray[np.bool_] | None = None) -> SearchResult:
+                        free: NDArray[np.bool_] | None = None,
+                        strain: ArrayLike | None = None) -> SearchResult:
     """Refine pose ``x0`` (6,) to the nearest peak of ``fitness`` (see the module docstring).
 
     Parameters
@@ -121,6 +134,10 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     config : GaussNewtonConfig, optional
     free : ndarray (6,) of bool, optional
         Genes that move (default: all).
+    strain : array (3,), optional
+        Start in-plane strain of the model (:func:`~photomodel.geometry.strained_matrices`):
+        when given, the strain is refined with the pose (three more genes, within
+        ``config.max_strain``) and returned in the result's ``strain``.
 
     Returns
     -------
@@ -130,30 +147,56 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     """
     c = config or GaussNewtonConfig()
     free = np.ones(6, dtype=bool) if free is None else np.asarray(free, dtype=bool)
-    h = np.asarray(c.difference_steps) * 2.0**level
-    weights = fitness.residual_weights()
     x = space.clip(np.asarray(x0, dtype=np.float64).reshape(6))
-    f = float(fitness(x[None])[0])
+    h = np.asarray(c.difference_steps) * 2.0**level
+    strained = strain is not None
+    if strained:
+        x = np.concatenate([x, np.clip(np.asarray(strain, dtype=np.float64).reshape(3),
+                                       -c.max_strain, c.max_strain)])
+        h = np.concatenate([h, np.full(3, c.strain_step * 2.0**level)])
+        free = np.concatenate([free, np.ones(3, dtype=bool)])
+
+    def clip(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        v = v.copy()
+        v[:6] = space.clip(v[:6])
+        v[6:] = np.clip(v[6:], -c.max_strain, c.max_strain)
+        return v
+
+    def transforms(poses: NDArray[np.float64]) -> NDArray[np.float64]:
+        if strained:
+            return strained_matrices(poses[:, :6], poses[:, 6:])
+        return pose_vectors_to_matrices(poses)
+
+    def value(v: NDArray[np.float64]) -> float:
+        return float(fitness.evaluate_transforms(transforms(v[None]))[0])
+
+    weights = fitness.residual_weights()
+    f = value(x)
     offsets = fitness.last_offsets()
     evaluations = 1
     history = [f]
     damping = c.damping0
     reason = out_of_iterations(c)
     differenced = False     # the gradient from the fitness's own differences
+    genes = len(x)
     for _ in range(c.max_iterations):
-        gradient, metric = _gradient_and_metric(fitness, x, h, offsets, weights, free)
-        evaluations += 7
+        poses = np.repeat(x[None], genes + 1, axis=0)
+        poses[1:] += np.diag(h)
+        r, ok = fitness.residuals(transforms(poses), offsets)
+        gradient, metric = _weighted_products(r, ok, np.asarray(weights, dtype=np.float64),
+                                              h, np.flatnonzero(free))
+        evaluations += genes + 1
         if differenced:
-            gradient = _fitness_gradient(fitness, x, f, h, free)
-            evaluations += 6
+            gradient = _fitness_gradient(fitness, transforms, x, f, h, free)
+            evaluations += genes
         scale = np.diag(np.diag(metric)) + 1e-12 * np.eye(len(metric))
-        step = np.zeros(6)
+        step = np.zeros(genes)
         while True:
             step[free] = np.linalg.solve(metric + damping * scale, gradient)
-            candidate = space.clip(x + step)
-            value = float(fitness(candidate[None])[0])
+            candidate = clip(x + step)
+            candidate_value = value(candidate)
             evaluations += 1
-            if value > f:
+            if candidate_value > f:
                 damping = max(damping / 3.0, 1e-4)
                 break
             damping *= 4.0
@@ -161,19 +204,20 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                 if differenced or not c.difference_on_stall:
                     break
                 differenced, damping = True, c.damping0
-                gradient = _fitness_gradient(fitness, x, f, h, free)
-                evaluations += 6
-        if value <= f:
+                gradient = _fitness_gradient(fitness, transforms, x, f, h, free)
+                evaluations += genes
+        if candidate_value <= f:
             reason = NO_ASCENT
             break
-        x, f = candidate, value
+        x, f = candidate, candidate_value
         offsets = fitness.last_offsets()
         history.append(f)
         if np.all(np.abs(step) <= c.converged_steps * h):
             reason = "gauss-newton: converged"
             break
     trace = np.asarray(history)
-    return SearchResult(x, f, evaluations, len(history) - 1, reason, trace, trace)
+    return SearchResult(x[:6], f, evaluations, len(history) - 1, reason, trace, trace,
+                        strain=x[6:].copy() if strained else None)
 
 
 def out_of_iterations(config: GaussNewtonConfig) -> str:
@@ -182,25 +226,14 @@ def out_of_iterations(config: GaussNewtonConfig) -> str:
     return f"gauss-newton: {config.max_iterations} iterations"
 
 
-def _fitness_gradient(fitness: ResidualFitness, x: NDArray[np.float64], f: float,
-                      h: NDArray[np.float64], free: NDArray[np.bool_]) -> NDArray[np.float64]:
+def _fitness_gradient(fitness: ResidualFitness,
+                      transforms: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                      x: NDArray[np.float64], f: float, h: NDArray[np.float64],
+                      free: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Forward differences (k,) of the fitness itself (light offsets free) over the ``free``
-    genes at ``x``, where it is ``f``."""
-    poses = np.repeat(x[None], 6, axis=0) + np.diag(h)
-    return ((fitness(poses) - f) / h)[free]
-
-
-def _gradient_and_metric(fitness: ResidualFitness, x: NDArray[np.float64],
-                         h: NDArray[np.float64], offsets: NDArray[np.float64],
-                         weights: NDArray[np.float64], free: NDArray[np.bool_]
-                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The fitness gradient (k,) over the ``free`` genes at ``x`` with the light offsets
-    held, and the inner points' Gauss-Newton matrix (k, k)."""
-    poses = np.repeat(x[None], 7, axis=0)
-    poses[1:] += np.diag(h)
-    r, ok = fitness.residuals(pose_vectors_to_matrices(poses), offsets)
-    return _weighted_products(r, ok, np.asarray(weights, dtype=np.float64), h,
-                              np.flatnonzero(free))
+    genes at ``x``, where it is ``f``; ``transforms`` maps gene vectors to ``T_cam1_model``."""
+    poses = np.repeat(x[None], len(x), axis=0) + np.diag(h)
+    return ((fitness.evaluate_transforms(transforms(poses)) - f) / h)[free]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -209,10 +242,10 @@ def _weighted_products(r: NDArray[np.float64], ok: NDArray[np.bool_],
                        genes: NDArray[np.intp]
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # pragma: no cover
     """The held-offset gradient ``-J (w r)`` and the inner points' ``J diag(w) J^T`` over
-    ``genes``, from the residuals ``r`` (7, cameras, N, 3) of the pose and its six forward
-    differences (steps ``h``) and their ``ok`` (7, cameras, N), in one pass.
+    ``genes``, from the residuals ``r`` (1 + G, cameras, N, 3) of the gene vector and its G
+    forward differences (steps ``h``) and their ``ok`` (1 + G, cameras, N), in one pass.
 
-    A sample counts where all seven poses saw it; its weight ``w`` is its signed
+    A sample counts where every pose saw it; its weight ``w`` is its signed
     ``weights`` times its agreement ``exp(-|r|^2 / 2)``, averaged over the cameras; the
     metric takes the inner (positive) samples only. The sums run in a fixed order (not a
     BLAS product, whose sums depend on its thread count), so a trial's records are the same
@@ -226,7 +259,7 @@ def _weighted_products(r: NDArray[np.float64], ok: NDArray[np.bool_],
     for c in range(cameras):
         for i in range(n):
             usable = True
-            for p in range(7):
+            for p in range(r.shape[0]):
                 usable = usable and ok[p, c, i]
             if not usable:
                 continue
