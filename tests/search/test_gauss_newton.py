@@ -107,15 +107,28 @@ def test_gauss_newton_fits_the_strain_of_a_shrunk_garment() -> None:
     rigid = gauss_newton_refine(fitness, x0, SPACE)
     assert rigid.strain is None and rigid.fitness < 0.6
     fitness.calls = 0
-    strained = gauss_newton_refine(fitness, x0, SPACE, strain=np.zeros(3))
+    free = GaussNewtonConfig(strain_weights=(0.0, 0.0))
+    strained = gauss_newton_refine(fitness, x0, SPACE, strain=np.zeros(3), config=free)
     np.testing.assert_allclose(strained.strain, [-0.02, 0.01, 0.005], atol=1e-4)
     np.testing.assert_allclose(strained.x[:3], TARGET[:3], atol=0.02)
     assert strained.fitness > 0.999
     # Ten residual poses (the vector and nine differences) per accepted step.
     assert strained.evaluations == fitness.calls + 10 * strained.iterations
     capped = gauss_newton_refine(fitness, x0, SPACE, strain=np.zeros(3),
-                                 config=GaussNewtonConfig(max_strain=0.01))
+                                 config=replace(free, max_strain=0.01))
     assert np.all(np.abs(capped.strain) <= 0.01 + 1e-12)
+    # The prior holds the strain back, the more so the more it weighs, and the shape
+    # (e_xx - e_yy, e_xy) by its own weight: the mean strain -0.005 is kept.
+    held = [gauss_newton_refine(fitness, x0, SPACE, strain=np.zeros(3),
+                                config=replace(free, strain_weights=(0.0, w))).strain
+            for w in (30.0, 1e6)]
+    moved = [float(np.abs(h - strained.strain).max()) for h in held]
+    assert 1e-4 < moved[0] < moved[1]
+    assert np.abs(held[1][0] - held[1][1]) < 1e-3 and abs(held[1][2]) < 1e-3
+    assert held[1][:2].mean() == pytest.approx(-0.005, abs=1e-3)
+    prior = GaussNewtonConfig(strain_weights=(2.0, 5.0)).strain_prior()
+    e = np.array([-0.02, 0.01, 0.005])
+    assert e @ prior @ e == pytest.approx(2.0 * 0.005**2 + 5.0 * (0.015**2 + 0.005**2))
 
 
 @lru_cache(maxsize=2)

@@ -94,7 +94,24 @@ class GaussNewtonConfig:
         Forward-difference step of the strain genes (1e-4: 0.01 mm on a 100 mm half-width).
     max_strain : float
         Largest strain component a refinement with strain may reach.
+    strain_weights : (float, float)
+        Prior on the strain: the refinement maximises the fitness less ``w_mean * m^2 +
+        w_shape * (d^2 + e_xy^2)``, with the mean strain ``m = (e_xx + e_yy) / 2`` and ``d =
+        (e_xx - e_yy) / 2`` (the result's fitness is the fitness itself). Where part of the
+        outline is hidden (a gripper, another garment), a strain that shrinks the model away
+        from the hidden end costs the fitness nothing, and the pose walks with it: without
+        a prior the navy trousers under the gripper ended 3.7 mm off (0.14 mm rigid). On
+        wrinkles, gripper and overlap x 2 trials (72 scenes): no prior, 21/24 wrinkled
+        successes and occluded errors up to 3.74 mm; (0, 0) -> (30, 30) 18/24 and 1.34 mm;
+        (10, 30) 22/24 and 1.75 mm (rigid: 13/24 and 1.31 mm). Folds shorten the cloth
+        across them, so the shape term is the one a wrinkled garment needs less of.
     """
+
+    def strain_prior(self) -> NDArray[np.float64]:
+        """The prior's matrix (3, 3) ``W``: the penalty is ``strain^T W strain``."""
+        mean, shape = self.strain_weights
+        m, d = np.array([0.5, 0.5, 0.0]), np.array([0.5, -0.5, 0.0])
+        return mean * np.outer(m, m) + shape * (np.outer(d, d) + np.diag([0.0, 0.0, 1.0]))
 
     difference_steps: tuple[float, ...] = (0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5)
     max_iterations: int = 20
@@ -104,14 +121,16 @@ class GaussNewtonConfig:
     difference_on_stall: bool = True
     strain_step: float = 1e-4
     max_strain: float = 0.1
+    strain_weights: tuple[float, float] = (10.0, 30.0)
 
     def __post_init__(self) -> None:
         if len(self.difference_steps) != 6 or min(self.difference_steps) <= 0:
             raise ValueError("difference_steps: expected six positive steps")
         if self.max_iterations < 1 or not 0 < self.damping0 < self.max_damping:
             raise ValueError("expected max_iterations >= 1 and 0 < damping0 < max_damping")
-        if not (self.strain_step > 0 and 0 < self.max_strain < 1):
-            raise ValueError("expected strain_step > 0 and 0 < max_strain < 1")
+        if not (self.strain_step > 0 and 0 < self.max_strain < 1
+                and min(self.strain_weights) >= 0):
+            raise ValueError("expected strain_step > 0, 0 < max_strain < 1, strain_weight >= 0")
 
 
 def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
@@ -167,8 +186,16 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
             return strained_matrices(poses[:, :6], poses[:, 6:])
         return pose_vectors_to_matrices(poses)
 
+    prior = np.zeros((len(x), len(x)))     # the strain's prior: x^T prior x
+    if strained:
+        prior[6:, 6:] = c.strain_prior()
+
+    def values(v: NDArray[np.float64]) -> NDArray[np.float64]:  # less the strain's prior
+        return (fitness.evaluate_transforms(transforms(v))
+                - np.einsum("pi,ij,pj->p", v, prior, v))
+
     def value(v: NDArray[np.float64]) -> float:
-        return float(fitness.evaluate_transforms(transforms(v[None]))[0])
+        return float(values(v[None])[0])
 
     weights = fitness.residual_weights()
     f = value(x)
@@ -186,8 +213,11 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         gradient, metric = _weighted_products(r, ok, np.asarray(weights, dtype=np.float64),
                                               h, np.flatnonzero(free))
         evaluations += genes + 1
+        if strained:
+            gradient -= (2.0 * prior @ x)[free]
+            metric += 2.0 * prior[np.ix_(free, free)]
         if differenced:
-            gradient = _fitness_gradient(fitness, transforms, x, f, h, free)
+            gradient = _fitness_gradient(values, x, f, h, free)
             evaluations += genes
         scale = np.diag(np.diag(metric)) + 1e-12 * np.eye(len(metric))
         step = np.zeros(genes)
@@ -204,7 +234,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                 if differenced or not c.difference_on_stall:
                     break
                 differenced, damping = True, c.damping0
-                gradient = _fitness_gradient(fitness, transforms, x, f, h, free)
+                gradient = _fitness_gradient(values, x, f, h, free)
                 evaluations += genes
         if candidate_value <= f:
             reason = NO_ASCENT
@@ -216,6 +246,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
             reason = "gauss-newton: converged"
             break
     trace = np.asarray(history)
+    f += float(x @ prior @ x)     # the fitness itself
     return SearchResult(x[:6], f, evaluations, len(history) - 1, reason, trace, trace,
                         strain=x[6:].copy() if strained else None)
 
@@ -226,14 +257,13 @@ def out_of_iterations(config: GaussNewtonConfig) -> str:
     return f"gauss-newton: {config.max_iterations} iterations"
 
 
-def _fitness_gradient(fitness: ResidualFitness,
-                      transforms: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+def _fitness_gradient(values: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                       x: NDArray[np.float64], f: float, h: NDArray[np.float64],
                       free: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Forward differences (k,) of the fitness itself (light offsets free) over the ``free``
-    genes at ``x``, where it is ``f``; ``transforms`` maps gene vectors to ``T_cam1_model``."""
+    """Forward differences (k,) of the fitness itself (light offsets free; ``values`` of gene
+    vectors (P, G)) over the ``free`` genes at ``x``, where it is ``f``."""
     poses = np.repeat(x[None], len(x), axis=0) + np.diag(h)
-    return ((fitness.evaluate_transforms(transforms(poses)) - f) / h)[free]
+    return ((values(poses) - f) / h)[free]
 
 
 @numba.njit(cache=True, nogil=True)
