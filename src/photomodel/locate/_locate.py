@@ -284,8 +284,10 @@ def locate_in_features(
         not trusted either does the first search run the GA beside the peaks. While the
         best score stays below ``min_score``, it searches again, at most this many times,
         with the GA beside the same peaks (continuing the random stream, with more
-        restarts: :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best.
-        A scene without the garment costs ``1 + retries`` searches.
+        restarts: :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best;
+        after a trusted scan, the first retry also starts from the relit scan's peaks (an
+        overexposed print can keep a wrong peak above ``trusted_score``). A scene without
+        the garment costs ``1 + retries`` searches.
     scan : ScanResult, optional
         This model's :func:`~photomodel.fitness.scan_flat_poses` of ``features`` with
         ``space``'s bounds, when the caller has it already (it is deterministic; an
@@ -312,17 +314,22 @@ def locate_in_features(
     config = PyramidConfig()
     if scan is None:
         scan = scan_flat_poses(model, features, space.lower, space.upper)
-    if not scan.trusted:
+    relit = not scan.trusted
+    if relit:
         scan = relight_scan(model, features, space.lower, space.upper) or scan
     if not scan.trusted:
         config = replace(config, ga_with_seeds=True)
+    seeds = list(scan.poses)
     best_score = best_edges = -np.inf
     while searches <= retries and best_score < min_score:
+        if searches == 1 and not relit:     # a trusted scan's peaks missed: relight them too
+            again = relight_scan(model, features, space.lower, space.upper)
+            seeds = [*(again.poses if again is not None else []), *seeds]
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
             space, config if searches == 0 and not second_look else config.for_retry(),
-            rng=gen, seeds=scan.poses, R_cam1_facing=features.rig.R_cam1_facing)
+            rng=gen, seeds=seeds, R_cam1_facing=features.rig.R_cam1_facing)
         searches += 1
         evaluations += attempt.evaluations
         edges = edge_evidence(SoftFitness(model, features, 0,
