@@ -10,7 +10,12 @@ import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import SoftFitness, StereoFeatures
-from photomodel.geometry import eps_from_rotation, pose_vectors_to_matrices
+from photomodel.geometry import (
+    eps_from_rotation,
+    pose_vectors_to_matrices,
+    rotation_from_eps,
+    strained_matrices,
+)
 from photomodel.search import (
     GaussNewtonConfig,
     PyramidConfig,
@@ -18,6 +23,7 @@ from photomodel.search import (
     SearchSpace,
     gauss_newton_refine,
 )
+from photomodel.search._gauss_newton import _weighted_products
 from photomodel.search._pyramid import _local_at
 
 SPACE = SearchSpace.from_ranges()
@@ -70,6 +76,10 @@ class LinearResiduals:
     def residual_weights(self) -> np.ndarray:
         return np.full(200, 1.0 / 200)
 
+    def residual_points(self) -> np.ndarray:
+        """No model geometry: its strain is refined with ``strain_by_differences``."""
+        return np.full((200, 3), np.nan)
+
 
 TARGET = np.array([37.0, -52.0, 702.0, 0.03, -0.02, 0.21])
 
@@ -107,7 +117,7 @@ def test_gauss_newton_fits_the_strain_of_a_shrunk_garment() -> None:
     rigid = gauss_newton_refine(fitness, x0, SPACE)
     assert rigid.strain is None and rigid.fitness < 0.6
     fitness.calls = 0
-    free = GaussNewtonConfig(strain_weights=(0.0, 0.0))
+    free = GaussNewtonConfig(strain_weights=(0.0, 0.0), strain_by_differences=True)
     strained = gauss_newton_refine(fitness, x0, SPACE, strain=np.zeros(3), config=free)
     np.testing.assert_allclose(strained.strain, [-0.02, 0.01, 0.005], atol=1e-4)
     np.testing.assert_allclose(strained.x[:3], TARGET[:3], atol=0.02)
@@ -156,6 +166,33 @@ def test_residuals_give_the_fitness_at_the_offsets_the_fitness_found(level: int)
         term = agreement @ fitness.residual_weights()   # a band point off the image agrees 1
         penalty = features.match.wb_weight * (offsets[:, 1] ** 2 + offsets[:, 2] ** 2)
         np.testing.assert_allclose(term - penalty, fitness.last_terms[p, :, 0], atol=1e-9)
+
+
+@pytest.mark.parametrize("level", [0, 1])
+def test_the_strain_jacobian_from_the_translation_matches_differences(level: int) -> None:
+    """The strain genes' gradient and metric taken from the translation's Jacobian and the
+    samples' model coordinates agree with those of three more residual poses."""
+    model, features, T = _case("No.1")
+    fitness = SoftFitness(model, features, level)
+    x = np.concatenate([T[:3, 3] + [0.8, -0.5, 2.0], eps_from_rotation(T[:3, :3]) + 0.002,
+                        [-0.01, 0.005, 0.003]])
+    fitness.evaluate_transforms(strained_matrices(x[None, :6], x[6:]))
+    offsets = fitness.last_offsets()
+    h = np.array([0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4, 1e-4]) * 2.0**level
+    poses = np.repeat(x[None], 10, axis=0)
+    poses[1:] += np.diag(h)
+    r, ok = fitness.residuals(strained_matrices(poses[:, :6], poses[:, 6:]), offsets)
+    w = fitness.residual_weights()
+    genes = np.arange(9)
+    R = rotation_from_eps(x[3:6])
+    g_diff, m_diff = _weighted_products(r, ok, w, h, genes, np.zeros((0, 2)), R)
+    points = np.ascontiguousarray(fitness.residual_points()[:, :2])
+    g_pts, m_pts = _weighted_products(r[:7], ok[:7], w, h, genes, points, R)
+    np.testing.assert_array_equal(g_pts[:6], _weighted_products(
+        r[:7], ok[:7], w, h, genes[:6], np.zeros((0, 2)), R)[0])
+    assert np.allclose(g_pts[6:], g_diff[6:], rtol=0.05, atol=0.01 * np.abs(g_diff[6:]).max())
+    scale = np.sqrt(np.outer(np.diag(m_diff), np.diag(m_diff)))
+    assert np.abs((m_pts - m_diff) / scale).max() < 0.03
 
 
 def test_gauss_newton_refines_a_rendered_garment_from_a_pixel_away() -> None:

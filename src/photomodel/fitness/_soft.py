@@ -230,6 +230,11 @@ class SoftFitness:
         n_in, n_out = len(self.samples.p_in), len(self.samples.p_out)
         return np.concatenate([np.full(n_in, 1.0 / n_in), np.full(n_out, -1.0 / max(n_out, 1))])
 
+    def residual_points(self) -> NDArray[np.float64]:
+        """Model-frame points (N_in + N_out, 3), mm, of the residuals' samples, in their
+        order (inner points first)."""
+        return np.concatenate([self.samples.p_in, self.samples.p_out])
+
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Scaled colour residuals of transforms (P, 4, 4) at fixed light offsets (2, 3).

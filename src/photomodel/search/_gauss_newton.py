@@ -41,7 +41,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from photomodel.geometry import pose_vectors_to_matrices, strained_matrices
+from photomodel.geometry import pose_vectors_to_matrices, rotation_from_eps, strained_matrices
 from photomodel.search._base import SearchResult
 from photomodel.search._space import SearchSpace
 
@@ -67,6 +67,8 @@ class ResidualFitness(Protocol):
                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]: ...
 
     def residual_weights(self) -> NDArray[np.float64]: ...
+
+    def residual_points(self) -> NDArray[np.float64]: ...
 
 
 @dataclass(frozen=True)
@@ -94,6 +96,10 @@ class GaussNewtonConfig:
         Forward-difference step of the strain genes (1e-4: 0.01 mm on a 100 mm half-width).
     max_strain : float
         Largest strain component a refinement with strain may reach.
+    strain_by_differences : bool
+        Take the strain genes' Jacobian from residual differences (three more poses an
+        iteration) instead of from the translation's and the samples' model coordinates
+        (``ResidualFitness.residual_points``; see ``_weighted_products``).
     strain_weights : (float, float)
         Prior on the strain: the refinement maximises the fitness less ``w_mean * m^2 +
         w_shape * (d^2 + e_xy^2)``, with the mean strain ``m = (e_xx + e_yy) / 2`` and ``d =
@@ -121,6 +127,7 @@ class GaussNewtonConfig:
     difference_on_stall: bool = True
     strain_step: float = 1e-4
     max_strain: float = 0.1
+    strain_by_differences: bool = False
     strain_weights: tuple[float, float] = (10.0, 30.0)
 
     def __post_init__(self) -> None:
@@ -197,7 +204,11 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     def value(v: NDArray[np.float64]) -> float:
         return float(values(v[None])[0])
 
-    weights = fitness.residual_weights()
+    weights = np.asarray(fitness.residual_weights(), dtype=np.float64)
+    # The strain's Jacobian from the translation's (no residual poses of its own).
+    by_points = strained and not c.strain_by_differences
+    points = (np.ascontiguousarray(fitness.residual_points()[:, :2], dtype=np.float64)
+              if by_points else np.zeros((0, 2)))
     f = value(x)
     offsets = fitness.last_offsets()
     evaluations = 1
@@ -206,13 +217,14 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     reason = out_of_iterations(c)
     differenced = False     # the gradient from the fitness's own differences
     genes = len(x)
+    differenced_genes = 6 if by_points else genes
     for _ in range(c.max_iterations):
-        poses = np.repeat(x[None], genes + 1, axis=0)
-        poses[1:] += np.diag(h)
+        poses = np.repeat(x[None], differenced_genes + 1, axis=0)
+        poses[1:] += np.diag(h)[:differenced_genes]
         r, ok = fitness.residuals(transforms(poses), offsets)
-        gradient, metric = _weighted_products(r, ok, np.asarray(weights, dtype=np.float64),
-                                              h, np.flatnonzero(free))
-        evaluations += genes + 1
+        gradient, metric = _weighted_products(r, ok, weights, h, np.flatnonzero(free), points,
+                                              rotation_from_eps(x[3:6]))
+        evaluations += differenced_genes + 1
         if strained:
             gradient -= (2.0 * prior @ x)[free]
             metric += 2.0 * prior[np.ix_(free, free)]
@@ -269,11 +281,18 @@ def _fitness_gradient(values: Callable[[NDArray[np.float64]], NDArray[np.float64
 @numba.njit(cache=True, nogil=True)
 def _weighted_products(r: NDArray[np.float64], ok: NDArray[np.bool_],
                        weights: NDArray[np.float64], h: NDArray[np.float64],
-                       genes: NDArray[np.intp]
+                       genes: NDArray[np.intp], points: NDArray[np.float64],
+                       R: NDArray[np.float64]
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # pragma: no cover
     """The held-offset gradient ``-J (w r)`` and the inner points' ``J diag(w) J^T`` over
     ``genes``, from the residuals ``r`` (1 + G, cameras, N, 3) of the gene vector and its G
     forward differences (steps ``h``) and their ``ok`` (1 + G, cameras, N), in one pass.
+
+    With ``points`` (N, 2), the samples' model-plane coordinates, ``r`` holds the six pose
+    genes' differences only, and the strain genes' columns come from the translation's: a
+    strain ``E`` moves sample ``p`` by ``R E p`` (``R`` the pose's rotation), so ``dr /
+    de_xx = p_x (J_t R[:, 0])``, ``dr / de_yy = p_y (J_t R[:, 1])`` and ``dr / de_xy = p_y
+    (J_t R[:, 0]) + p_x (J_t R[:, 1])`` with ``J_t`` the residual's translation Jacobian.
 
     A sample counts where every pose saw it; its weight ``w`` is its signed
     ``weights`` times its agreement ``exp(-|r|^2 / 2)``, averaged over the cameras; the
@@ -283,9 +302,12 @@ def _weighted_products(r: NDArray[np.float64], ok: NDArray[np.bool_],
     and weights before it took another 0.3."""
     k = genes.shape[0]
     cameras, n, channels = r.shape[1], r.shape[2], r.shape[3]
+    by_points = points.shape[0] > 0
+    differenced = r.shape[0] - 1
     gradient = np.zeros(k)
     metric = np.zeros((k, k))
     jacobian = np.zeros(k)
+    full = np.zeros(differenced + (3 if by_points else 0))
     for c in range(cameras):
         for i in range(n):
             usable = True
@@ -300,9 +322,17 @@ def _weighted_products(r: NDArray[np.float64], ok: NDArray[np.bool_],
             inner = w if weights[i] > 0 else 0.0
             for d in range(channels):
                 r0 = r[0, c, i, d]
+                for g in range(differenced):
+                    full[g] = (r[1 + g, c, i, d] - r0) / h[g]
+                if by_points:
+                    dx = R[0, 0] * full[0] + R[1, 0] * full[1] + R[2, 0] * full[2]
+                    dy = R[0, 1] * full[0] + R[1, 1] * full[1] + R[2, 1] * full[2]
+                    px, py = points[i, 0], points[i, 1]
+                    full[6] = px * dx
+                    full[7] = py * dy
+                    full[8] = py * dx + px * dy
                 for p in range(k):
-                    g = genes[p]
-                    jacobian[p] = (r[1 + g, c, i, d] - r0) / h[g]
+                    jacobian[p] = full[genes[p]]
                     gradient[p] -= jacobian[p] * (w * r0)
                 if inner != 0.0:
                     for p in range(k):

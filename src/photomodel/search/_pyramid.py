@@ -144,8 +144,9 @@ class PyramidConfig:
         shrink away from its hidden end, so the strain has a prior
         (``GaussNewtonConfig.strain_weights``); with it, 22/24 wrinkled successes, and the
         occluded scenes' largest error 1.75 mm against 1.31 mm rigid (48 gripper and
-        overlap scenes, all successes). Each Gauss-Newton iteration evaluates 10 residual
-        poses instead of 7.
+        overlap scenes, all successes). The strain's Jacobian comes from the
+        translation's (``GaussNewtonConfig.strain_by_differences``), so an iteration still
+        evaluates 7 residual poses.
     coarse_own_colours : bool
         Refine each hypothesis on the coarse level with the garment's own colours before
         the next level. The palette's peak is as wide as the garment and its top is flat:
