@@ -135,18 +135,18 @@ class PyramidConfig:
         it), and the fitness is scored with it. Folds gather cloth, so a wrinkled garment
         lies up to 3-4 % shorter than its photo; a rigid model matched that by tilting
         (foreshortening) and moving away, until its depth and tilt came from the garment's
-        size instead of the two cameras' disparity. With the strain free, size and
-        disparity no longer trade: on 24 wrinkled scenes (2 per garment) 21 against 13
-        successes, median tilt error 4.0 -> 1.6 deg (benchmark: 54.2 -> 87.5 %); on 192 mixed scenes (16 conditions)
-        the same 189 successes, median position error 0.18 -> 0.12 mm. The grey sock's depth
-        bias, a band that pulls its low-contrast outline outwards, goes into a +0.3 % strain
-        instead of the depth (paper No.6: -1.20 -> -0.42 mm). A garment partly hidden can
-        shrink away from its hidden end, so the strain has a prior
+        size instead of the two cameras' disparity. With the strain free, size and disparity
+        no longer trade: on 24 wrinkled scenes (2 per garment) 21 against 13 successes,
+        median tilt error 4.0 -> 1.6 deg (benchmark: 54.2 -> 87.5 %); on 192 mixed scenes
+        (16 conditions) the same 189 successes, median position error 0.18 -> 0.12 mm. The
+        grey sock's depth bias, a band that pulls its low-contrast outline outwards, goes
+        into a +0.3 % strain instead of the depth (paper No.6: -1.20 -> -0.42 mm). A garment
+        partly hidden can shrink away from its hidden end, so the strain has a prior
         (``GaussNewtonConfig.strain_weights``); with it, 22/24 wrinkled successes, and the
-        occluded scenes' largest error 1.75 mm against 1.31 mm rigid (48 gripper and
-        overlap scenes, all successes). The strain's Jacobian comes from the
-        translation's (``GaussNewtonConfig.strain_by_differences``), so an iteration still
-        evaluates 7 residual poses.
+        occluded scenes' largest error 1.75 mm against 1.31 mm rigid (48 gripper and overlap
+        scenes, all successes). The strain's Jacobian comes from the translation's
+        (``GaussNewtonConfig.strain_by_differences``), so an iteration still evaluates 7
+        residual poses.
     coarse_own_colours : bool
         Refine each hypothesis on the coarse level with the garment's own colours before
         the next level. The palette's peak is as wide as the garment and its top is flat:
