@@ -405,6 +405,16 @@ def test_build_then_locate_json(capsys, data: CliData, tmp_path: Path) -> None:
     # Not an accuracy test, only a sanity check that the pose is the scene's garment.
     assert result["found"] is True
     assert np.linalg.norm(position - data.T_cam1_model[:3, 3]) < 30.0
+    strain = np.array(result["strain"], dtype=np.float64)   # the fitted in-plane strain
+    assert strain.shape == (3,) and np.all(np.abs(strain) < 0.1)
+
+
+def test_locate_prints_the_pose_and_the_strain(capsys, data: CliData) -> None:
+    code, out, err = _run(capsys, _locate_argv(data))
+    assert code == 0, err
+    lines = {line.split()[0]: line for line in out.strip().splitlines()}
+    assert {"model", "position", "theta", "quat_wxyz", "strain", "search"} <= set(lines), out
+    assert "found" in lines["model"] and lines["strain"].count("%") == 3
 
 
 def test_locate_overlay_png(capsys, data: CliData, tmp_path: Path) -> None:

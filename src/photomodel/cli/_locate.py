@@ -104,13 +104,18 @@ def format_result(result: LocateResult) -> str:
     """Human-readable summary of a locate result."""
     w, qx, qy, qz = result.quat_wxyz
     s = result.search
-    return "\n".join([
+    lines = [
         f"model       {result.model}: {'found' if result.found else 'NOT found'} "
         f"(score {result.score:.3f}, fitness {result.fitness:.3g})",
         f"position    x {result.position_mm[0]:.2f}  y {result.position_mm[1]:.2f}  "
         f"z {result.position_mm[2]:.2f} mm (camera 1)",
         f"theta       {result.theta_deg:.2f} deg",
         f"quat_wxyz   {w:.5f} {qx:.5f} {qy:.5f} {qz:.5f}",
-        f"search      {s.iterations} iterations, {s.evaluations} evaluations, "
-        f"{result.seconds:.2f} s ({s.stop_reason})",
-    ])
+    ]
+    if result.strain is not None:
+        exx, eyy, exy = 100.0 * result.strain
+        lines.append(f"strain      x {exx:+.2f} %  y {eyy:+.2f} %  shear {exy:+.2f} % "
+                     "(the garment against its photo)")
+    lines.append(f"search      {s.iterations} iterations, {s.evaluations} evaluations, "
+                 f"{result.seconds:.2f} s ({s.stop_reason})")
+    return "\n".join(lines)
