@@ -21,15 +21,20 @@ fitness by less than 3e-4 on nine scenes, where it had raised it by up to 0.01 b
 
 ``J`` comes from forward differences of the residuals, one pose per gene (bilinear samples of
 smoothed images: a difference of a fortieth of a pixel is the local slope), all seven poses in
-one kernel call (ten with the model's in-plane strain as three more genes: the residuals take
-any map of model points, :func:`~photomodel.geometry.strained_matrices`). An iteration costs
-seven residual evaluations and one or two of the fitness, and 4-10 iterations converge from a
-pixel or two away: measured on 48 scenes (paper, blur, gripper, overlap) against
-:class:`~photomodel.search.LocalCMA` on pyramid levels 1 and 0, the same 48 successes and
-median errors (0.32 against 0.30 mm, 0.138 against 0.131 deg) in 0.39x the time per stereo
-pair; on 48 more (wrinkles, warm light, tilt, distractors) 45 against 42 successes. Its basin
-is a few pixels wide: the coarse levels, where a hypothesis starts tens of millimetres away,
-keep :class:`~photomodel.search.LocalRefine` (with it on level 2 and 3 as well, 47/48). """
+one kernel call. An iteration costs seven residual evaluations and one or two of the fitness,
+and 4-10 iterations converge from a pixel or two away: measured on 48 scenes (paper, blur,
+gripper, overlap) against :class:`~photomodel.search.LocalCMA` on pyramid levels 1 and 0, the
+same 48 successes and median errors (0.32 against 0.30 mm, 0.138 against 0.131 deg) in 0.39x
+the time per stereo pair; on 48 more (wrinkles, warm light, tilt, distractors) 45 against 42
+successes. Its basin is a few pixels wide: the coarse levels, where a hypothesis starts tens of
+millimetres away, keep :class:`~photomodel.search.LocalRefine` (with it on level 2 and 3 as
+well, 47/48).
+
+With a start strain the model's in-plane strain ``(e_xx, e_yy, e_xy)`` is refined with the
+pose (:func:`~photomodel.geometry.strained_matrices`: the residuals take any map of model
+points). Its three Jacobian columns come from the translation's, not from more residual
+poses: a strain ``E`` moves sample ``p`` by ``R E p`` (``_weighted_products``).
+"""
 
 from __future__ import annotations
 
@@ -108,8 +113,8 @@ class GaussNewtonConfig:
         from the hidden end costs the fitness nothing, and the pose walks with it: without
         a prior the navy trousers under the gripper ended 3.7 mm off (0.14 mm rigid). On
         wrinkles, gripper and overlap x 2 trials (72 scenes): no prior, 21/24 wrinkled
-        successes and occluded errors up to 3.74 mm; (0, 0) -> (30, 30) 18/24 and 1.34 mm;
-        (10, 30) 22/24 and 1.75 mm (rigid: 13/24 and 1.31 mm). Folds shorten the cloth
+        successes and occluded errors up to 3.74 mm; (30, 30) 18/24 and 1.34 mm; (0, 100)
+        20/24 and 1.47 mm; (10, 30) 22/24 and 1.75 mm (rigid: 13/24 and 1.31 mm). Folds shorten the cloth
         across them, so the shape term is the one a wrinkled garment needs less of.
     """
 
@@ -137,7 +142,7 @@ class GaussNewtonConfig:
             raise ValueError("expected max_iterations >= 1 and 0 < damping0 < max_damping")
         if not (self.strain_step > 0 and 0 < self.max_strain < 1
                 and min(self.strain_weights) >= 0):
-            raise ValueError("expected strain_step > 0, 0 < max_strain < 1, strain_weight >= 0")
+            raise ValueError("expected strain_step > 0, 0 < max_strain < 1, strain_weights >= 0")
 
 
 def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
