@@ -114,8 +114,9 @@ class GaussNewtonConfig:
         a prior the navy trousers under the gripper ended 3.7 mm off (0.14 mm rigid). On
         wrinkles, gripper and overlap x 2 trials (72 scenes): no prior, 21/24 wrinkled
         successes and occluded errors up to 3.74 mm; (30, 30) 18/24 and 1.34 mm; (0, 100)
-        20/24 and 1.47 mm; (10, 30) 22/24 and 1.75 mm (rigid: 13/24 and 1.31 mm). Folds shorten the cloth
-        across them, so the shape term is the one a wrinkled garment needs less of.
+        20/24 and 1.47 mm; (10, 30) 22/24 and 1.75 mm (rigid: 13/24 and 1.31 mm). Folds
+        shorten the cloth across them, so the shape term is the one a wrinkled garment needs
+        less of.
     """
 
     def strain_prior(self) -> NDArray[np.float64]:
