@@ -201,6 +201,30 @@ def test_the_scan_is_not_trusted_under_another_lamp() -> None:
         assert np.array_equal(result.light_offsets, np.zeros((len(result.poses), 3)))
 
 
+def test_the_plain_scans_peaks_compete_with_the_relit_ones() -> None:
+    """A striped shirt under a dim lamp (trial 2): the plain scan is not trusted, yet its
+    peaks lie on the garment, and the relit scans' best lie on the table. Ranked together
+    by the level-3 fitness, the plain peaks come first; without them the search missed."""
+    config = ExperimentConfig(garments=("No.3",), conditions=("dim",), trials=3, seed=0)
+    model, rig, right, left, T_true, _ = trial_inputs(
+        config, Trial("dim_No.3_0002", "No.3", "dim", 2))
+    features = StereoFeatures(rig, right, left)
+    space = SearchSpace.from_ranges()
+    plain = scan_flat_poses(model, features, space.lower, space.upper)
+    assert not plain.trusted
+
+    def off_mm(found) -> np.ndarray:
+        return np.linalg.norm(found.poses[:, :3] - T_true[:3, 3], axis=1)
+
+    relit = relight_scan(model, features, space.lower, space.upper)
+    assert relit is not None and off_mm(relit).min() > 40.0
+    both = relight_scan(model, features, space.lower, space.upper, keep=plain)
+    assert both is not None and both.trusted and off_mm(both)[0] < 30.0
+    assert np.array_equal(both.light_offsets[0], np.zeros(3))    # a plain peak
+    result = locate(model, rig, right, left, rng=0)
+    assert result.found and np.linalg.norm(result.position_mm - T_true[:3, 3]) < 2.0
+
+
 @pytest.mark.parametrize(("garment", "condition"), [("No.4", "warm-light"), ("No.12", "dim")])
 def test_a_second_look_with_the_scenes_light_finds_the_garment(garment: str,
                                                                condition: str) -> None:

@@ -203,20 +203,24 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
 
 
 def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
-                 upper: NDArray[np.float64], config: ScanConfig | None = None
-                 ) -> ScanResult | None:
+                 upper: NDArray[np.float64], config: ScanConfig | None = None,
+                 keep: ScanResult | None = None) -> ScanResult | None:
     """A second look for a scan that was not trusted: the scan again with the
     ``config.relight`` light offsets the scene's colours suggest
     (:func:`~photomodel.fitness.light_offset_candidates`).
 
-    Parameters are those of :func:`scan_flat_poses`.
+    Parameters are those of :func:`scan_flat_poses`, and ``keep``: the plain scan, whose
+    peaks compete with the relit ones in the ranking. Under a dim lamp the plain scan's
+    best score can be too low to trust while its peaks lie on the garment and the relit
+    scans' best lie on the table (a striped shirt: level-3 fitness 0.067 against -0.076).
 
     Returns
     -------
     ScanResult or None
-        The peaks of the trusted relit scans, ranked again by the scanned level's fitness
-        (light offsets free), with the offset each was scanned with; None when no relit
-        scan is trusted (the garment's colours agree nowhere under any of them).
+        The peaks of the trusted relit scans (and of ``keep``), ranked again by the scanned
+        level's fitness (light offsets free), with the offset each was scanned with; None
+        when no relit scan is trusted (the garment's colours agree nowhere under any of
+        them).
     """
     c = config or ScanConfig()
     samples = model_samples(model, level_spacing(c.level))
@@ -227,9 +231,10 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
     relit = [r for r in relit if r.trusted]
     if not relit:
         return None
-    merged = ScanResult(np.concatenate([r.poses for r in relit]),
-                        np.concatenate([r.scores for r in relit]), sum(r.maps for r in relit),
-                        True, np.concatenate([r.light_offsets for r in relit]))
+    peaks = relit if keep is None else [*relit, keep]
+    merged = ScanResult(np.concatenate([r.poses for r in peaks]),
+                        np.concatenate([r.scores for r in peaks]), sum(r.maps for r in peaks),
+                        True, np.concatenate([r.light_offsets for r in peaks]))
     return _ranked(model, features, c, merged, margin=np.inf)
 
 

@@ -316,7 +316,7 @@ def locate_in_features(
         scan = scan_flat_poses(model, features, space.lower, space.upper)
     relit = not scan.trusted
     if relit:
-        scan = relight_scan(model, features, space.lower, space.upper) or scan
+        scan = relight_scan(model, features, space.lower, space.upper, keep=scan) or scan
     if not scan.trusted:
         config = replace(config, ga_with_seeds=True)
     seeds = list(scan.poses)
