@@ -434,30 +434,30 @@ def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
     from ``x``: Gauss-Newton or ``LocalCMA`` as ``config`` says for ``level``, steps scaled
     by 2**level. With a ``strain``, Gauss-Newton refines it with the pose, and CMA-ES holds
     it; the result carries it."""
-    def cma_from(x0: NDArray[np.float64], f_x0: float) -> SearchResult:
+    def cma_from(x0: NDArray[np.float64], f_x0: float,
+                 held: NDArray[np.float64] | None) -> SearchResult:
         found = run_search(LocalCMA(space, x0, f_x0, config.local.scaled(2.0**level), gen),
-                           _strained(objective, strain))
-        return replace(found, strain=strain)
+                           _strained(objective, held))
+        return replace(found, strain=held)
 
     if not (config.local_method == "gauss-newton" and level <= config.gauss_newton_max_level):
-        return cma_from(x, f0)
+        return cma_from(x, f0, strain)
     if not isinstance(objective, ResidualFitness):
         raise TypeError("local_method 'gauss-newton' needs a fitness with residuals "
                         "(SoftFitness)")
     result = gauss_newton_refine(objective, x, space, level, config.gauss_newton,
                                  strain=strain)
-    strain = result.strain
     stalled = config.stalled_to_cma and result.stop_reason == NO_ASCENT
     climbing = (config.unconverged_to_cma and level > 0
                 and result.stop_reason == out_of_iterations(config.gauss_newton))
     if not (stalled or climbing):
         return result
-    cma = cma_from(result.x, result.fitness)
+    cma = cma_from(result.x, result.fitness, result.strain)
     return SearchResult(cma.x, cma.fitness, result.evaluations + cma.evaluations,
                         result.iterations + cma.iterations,
                         f"{result.stop_reason}, then {cma.stop_reason}",
                         np.concatenate([result.best_history, cma.best_history]),
-                        np.concatenate([result.mean_history, cma.mean_history]), strain)
+                        np.concatenate([result.mean_history, cma.mean_history]), cma.strain)
 
 
 def _survivors(results: list[SearchResult], space: SearchSpace, margin: float
