@@ -20,6 +20,43 @@ def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
     return K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _project_jacobian(X, Y, Z, K, D, jac):  # pragma: no cover - compiled
+    """``_project`` of (X, Y, Z), and ``jac`` (2, 3) = d(u, v) / d(X, Y, Z): the same
+    rational radial, tangential and thin-prism terms, differentiated in closed form."""
+    if Z <= 0.0:
+        return -1.0e9, -1.0e9
+    iz = 1.0 / Z
+    x = X * iz
+    y = Y * iz
+    r2 = x * x + y * y
+    num = 1.0 + r2 * (D[0] + r2 * (D[1] + r2 * D[4]))
+    den = 1.0 + r2 * (D[5] + r2 * (D[6] + r2 * D[7]))
+    radial = num / den
+    # d radial / d r2, and the thin-prism terms' d / d r2
+    d_radial = ((D[0] + r2 * (2.0 * D[1] + 3.0 * r2 * D[4]))
+                - radial * (D[5] + r2 * (2.0 * D[6] + 3.0 * r2 * D[7]))) / den
+    prism_x = D[8] + 2.0 * D[9] * r2
+    prism_y = D[10] + 2.0 * D[11] * r2
+    xd = x * radial + 2.0 * D[2] * x * y + D[3] * (r2 + 2.0 * x * x) + D[8] * r2 + D[9] * r2 * r2
+    yd = y * radial + D[2] * (r2 + 2.0 * y * y) + 2.0 * D[3] * x * y + D[10] * r2 + D[11] * r2 * r2
+    xd_x = radial + 2.0 * x * (x * d_radial + prism_x) + 2.0 * D[2] * y + 6.0 * D[3] * x
+    xd_y = 2.0 * y * (x * d_radial + prism_x) + 2.0 * D[2] * x + 2.0 * D[3] * y
+    yd_x = 2.0 * x * (y * d_radial + prism_y) + 2.0 * D[2] * x + 2.0 * D[3] * y
+    yd_y = radial + 2.0 * y * (y * d_radial + prism_y) + 6.0 * D[2] * y + 2.0 * D[3] * x
+    u_x = K[0, 0] * xd_x + K[0, 1] * yd_x
+    u_y = K[0, 0] * xd_y + K[0, 1] * yd_y
+    v_x = K[1, 1] * yd_x
+    v_y = K[1, 1] * yd_y
+    jac[0, 0] = u_x * iz
+    jac[0, 1] = u_y * iz
+    jac[0, 2] = -(u_x * x + u_y * y) * iz
+    jac[1, 0] = v_x * iz
+    jac[1, 1] = v_y * iz
+    jac[1, 2] = -(v_x * x + v_y * y) * iz
+    return K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]
+
+
 @njit(cache=True, inline="always")
 def _matches(code_img, sat_img, code_model, min_sat, thr):  # pragma: no cover - compiled
     if code_model < 0.0:

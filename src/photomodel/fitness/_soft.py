@@ -235,6 +235,56 @@ class SoftFitness:
         order (inner points first)."""
         return np.concatenate([self.samples.p_in, self.samples.p_out])
 
+    def normal_equations(self, A_cam1_model: NDArray[np.float64], dA: NDArray[np.float64],
+                         offsets: NDArray[np.float64]
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The residuals' held-offset gradient and inner metric at one map, from the analytic
+        Jacobian (:mod:`photomodel.fitness._soft_jacobian`).
+
+        Parameters
+        ----------
+        A_cam1_model : ndarray (4, 4)
+            Map of model points into camera 1 (a pose, or a strained one).
+        dA : ndarray (G, 4, 4)
+            Its derivative along each of G genes.
+        offsets : ndarray (2, 3)
+            Light offsets of each camera, held.
+
+        Returns
+        -------
+        gradient : ndarray (G,)
+            ``-sum_j w_j J_j^T r_j`` over both cameras' samples (:meth:`residuals`,
+            :meth:`residual_weights`; ``w_j`` a sample's weight times its agreement
+            ``exp(-|r_j|^2 / 2)``, averaged over the cameras): the fitness's gradient with
+            the offsets held.
+        metric : ndarray (G, G)
+            ``sum w_j J_j^T J_j`` over the inner samples.
+        """
+        from photomodel.fitness._soft_jacobian import soft_normal_kernel
+
+        if self.palette_weight > 0:
+            raise ValueError("normal_equations: defined for the own colours only "
+                             "(palette_weight 0)")
+        A = np.asarray(A_cam1_model, dtype=np.float64)
+        dA = np.asarray(dA, dtype=np.float64)
+        rig, s = self.features.rig, self.samples
+        Ms = np.stack([A[:3, :3], rig.R @ A[:3, :3]])
+        ts = np.stack([A[:3, 3], rig.R @ A[:3, 3] + rig.T])
+        dX = dA[:, :3, [0, 1, 3]]     # per gene: the camera point's x, y and 1 coefficients
+        dXs = np.ascontiguousarray(np.stack([dX, np.einsum("ij,gjk->gik", rig.R, dX)]))
+        G = len(dA)
+        gradient = np.zeros((2, G))
+        metric = np.zeros((2, G, G))
+        inv_var_l, inv_var_c, _ = self._args
+        soft_normal_kernel(Ms, ts, dXs, self.K1, rig.cam1.distortion12, self.K2,
+                           rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
+                           self.features.pyramids[0][self.level],
+                           self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
+                           math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
+                           self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
+                           self.residual_weights() / 2.0, gradient, metric)
+        return gradient[0] + gradient[1], metric[0] + metric[1]
+
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Scaled colour residuals of transforms (P, 4, 4) at fixed light offsets (2, 3).

@@ -11,6 +11,7 @@ from photomodel.search._full import FullSearch, FullSearchConfig
 from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
     GaussNewtonConfig,
+    NormalEquationsFitness,
     ResidualFitness,
     gauss_newton_refine,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "RealGA",
     "RealGAConfig",
     "RefineConfig",
+    "NormalEquationsFitness",
     "ResidualFitness",
     "SearchResult",
     "SearchSpace",

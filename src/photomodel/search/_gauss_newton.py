@@ -40,7 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Literal, Protocol, runtime_checkable
 
 import numba
 import numpy as np
@@ -50,8 +50,8 @@ from photomodel.geometry import pose_vectors_to_matrices, rotation_from_eps, str
 from photomodel.search._base import SearchResult
 from photomodel.search._space import SearchSpace
 
-__all__ = ["NO_ASCENT", "GaussNewtonConfig", "ResidualFitness", "gauss_newton_refine",
-           "out_of_iterations"]
+__all__ = ["NO_ASCENT", "GaussNewtonConfig", "NormalEquationsFitness", "ResidualFitness",
+           "gauss_newton_refine", "out_of_iterations"]
 
 NO_ASCENT = "gauss-newton: no ascent step"
 """Stop reason of a refinement that accepted no step where it stopped (a kink or a peak)."""
@@ -76,6 +76,16 @@ class ResidualFitness(Protocol):
     def residual_points(self) -> NDArray[np.float64]: ...
 
 
+@runtime_checkable
+class NormalEquationsFitness(ResidualFitness, Protocol):
+    """A residual fitness that also gives its normal equations from an analytic Jacobian
+    (``SoftFitness.normal_equations``)."""
+
+    def normal_equations(self, A_cam1_model: NDArray[np.float64], dA: NDArray[np.float64],
+                         offsets: NDArray[np.float64]
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+
 @dataclass(frozen=True)
 class GaussNewtonConfig:
     """Settings of :func:`gauss_newton_refine` (level-0 values; level k scales the
@@ -94,6 +104,14 @@ class GaussNewtonConfig:
         Start value of ``lambda``.
     max_damping : float
         Stop when no step is accepted up to this ``lambda`` (the start is a peak).
+    rejected_damping : float
+        After a rejected step ``lambda`` grows to at least this: below about a quarter the
+        damped step is the Gauss-Newton step within 20 %, and trying it again wastes an
+        evaluation.
+    min_step : float
+        A rejected step no larger than this many difference steps in any gene counts as
+        ``max_damping`` reached: a smaller one moves the samples by less than a hundredth of
+        a pixel.
     difference_on_stall : bool
         Where no step is accepted, go on with the gradient of the fitness's own forward
         differences before stopping (see the module docstring).
@@ -101,8 +119,14 @@ class GaussNewtonConfig:
         Forward-difference step of the strain genes (1e-4: 0.01 mm on a 100 mm half-width).
     max_strain : float
         Largest strain component a refinement with strain may reach.
+    jacobian : {"analytic", "differences"}
+        Where the fitness gives its normal equations (:class:`NormalEquationsFitness`), take
+        the gradient and metric from the residuals' analytic Jacobian (the image's bilinear
+        slope through the projection: one pose an iteration instead of seven residual poses
+        and their products; at level 0 0.8 against 1.7 ms on two threads), else from forward
+        differences of the residuals (``difference_steps``).
     strain_by_differences : bool
-        Take the strain genes' Jacobian from residual differences (three more poses an
+        With ``jacobian="differences"``: take the strain genes' Jacobian from residual differences (three more poses an
         iteration) instead of from the translation's and the samples' model coordinates
         (``ResidualFitness.residual_points``; see ``_weighted_products``).
     strain_weights : (float, float)
@@ -130,9 +154,12 @@ class GaussNewtonConfig:
     converged_steps: float = 2.5
     damping0: float = 1e-3
     max_damping: float = 1e4
+    rejected_damping: float = 0.25
+    min_step: float = 0.5
     difference_on_stall: bool = True
     strain_step: float = 1e-4
     max_strain: float = 0.1
+    jacobian: Literal["analytic", "differences"] = "analytic"
     strain_by_differences: bool = False
     strain_weights: tuple[float, float] = (10.0, 30.0)
 
@@ -141,6 +168,9 @@ class GaussNewtonConfig:
             raise ValueError("difference_steps: expected six positive steps")
         if self.max_iterations < 1 or not 0 < self.damping0 < self.max_damping:
             raise ValueError("expected max_iterations >= 1 and 0 < damping0 < max_damping")
+        if self.jacobian not in ("analytic", "differences"):
+            raise ValueError(f"jacobian: expected 'analytic' or 'differences', "
+                             f"got {self.jacobian!r}")
         if not (self.strain_step > 0 and 0 < self.max_strain < 1
                 and min(self.strain_weights) >= 0):
             raise ValueError("expected strain_step > 0, 0 < max_strain < 1, strain_weights >= 0")
@@ -210,9 +240,10 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     def value(v: NDArray[np.float64]) -> float:
         return float(values(v[None])[0])
 
+    analytic = c.jacobian == "analytic" and isinstance(fitness, NormalEquationsFitness)
     weights = np.asarray(fitness.residual_weights(), dtype=np.float64)
     # The strain's Jacobian from the translation's (no residual poses of its own).
-    by_points = strained and not c.strain_by_differences
+    by_points = strained and not c.strain_by_differences and not analytic
     points = (np.ascontiguousarray(fitness.residual_points()[:, :2], dtype=np.float64)
               if by_points else np.zeros((0, 2)))
     f = value(x)
@@ -225,12 +256,17 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     genes = len(x)
     differenced_genes = 6 if by_points else genes
     for _ in range(c.max_iterations):
-        poses = np.repeat(x[None], differenced_genes + 1, axis=0)
-        poses[1:] += np.diag(h)[:differenced_genes]
-        r, ok = fitness.residuals(transforms(poses), offsets)
-        gradient, metric = _weighted_products(r, ok, weights, h, np.flatnonzero(free), points,
-                                              rotation_from_eps(x[3:6]))
-        evaluations += differenced_genes + 1
+        if analytic:
+            gradient, metric = fitness.normal_equations(
+                transforms(x[None])[0], _map_derivatives(transforms, x, free), offsets)
+            evaluations += 1
+        else:
+            poses = np.repeat(x[None], differenced_genes + 1, axis=0)
+            poses[1:] += np.diag(h)[:differenced_genes]
+            r, ok = fitness.residuals(transforms(poses), offsets)
+            gradient, metric = _weighted_products(r, ok, weights, h, np.flatnonzero(free),
+                                                  points, rotation_from_eps(x[3:6]))
+            evaluations += differenced_genes + 1
         if strained:
             gradient -= (2.0 * prior @ x)[free]
             metric += 2.0 * prior[np.ix_(free, free)]
@@ -247,8 +283,8 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
             if candidate_value > f:
                 damping = max(damping / 3.0, 1e-4)
                 break
-            damping *= 4.0
-            if damping > c.max_damping:
+            damping = max(4.0 * damping, c.rejected_damping)
+            if damping > c.max_damping or np.all(np.abs(step) <= c.min_step * h):
                 if differenced or not c.difference_on_stall:
                     break
                 differenced, damping = True, c.damping0
@@ -273,6 +309,20 @@ def out_of_iterations(config: GaussNewtonConfig) -> str:
     """Stop reason of a refinement that spent ``config.max_iterations`` accepted steps
     without converging (still climbing)."""
     return f"gauss-newton: {config.max_iterations} iterations"
+
+
+def _map_derivatives(transforms: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                     x: NDArray[np.float64], free: NDArray[np.bool_],
+                     step: float = 1e-6) -> NDArray[np.float64]:
+    """Derivatives (k, 4, 4) of the map ``transforms(x)`` along each of the ``free`` genes,
+    by central differences (the maps are smooth: exact in translation and strain, to about
+    1e-12 in the rotation's eps)."""
+    genes = np.flatnonzero(free)
+    poses = np.repeat(x[None], 2 * len(genes), axis=0)
+    poses[np.arange(len(genes)), genes] += step
+    poses[len(genes) + np.arange(len(genes)), genes] -= step
+    T = transforms(poses)
+    return (T[:len(genes)] - T[len(genes):]) / (2.0 * step)
 
 
 def _fitness_gradient(values: Callable[[NDArray[np.float64]], NDArray[np.float64]],
