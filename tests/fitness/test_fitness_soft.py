@@ -291,3 +291,60 @@ def test_the_navy_trousers_are_found_at_their_depth() -> None:
     error = result.T_cam1_model[:3, 3] - T_true[:3, 3]
     assert result.found and abs(error[2]) < 1.0, error
     assert result.optics_blur_mm is not None and result.optics_blur_mm >= 0.5
+
+
+def test_projection_jacobian_matches_differences_with_every_distortion_term() -> None:
+    """``_project_jacobian`` gives ``_project``'s pixel and its derivative, the rational,
+    tangential and thin-prism terms included."""
+    from photomodel.fitness._kernels import _project, _project_jacobian
+
+    K = np.array([[800.0, 0.4, 330.0], [0.0, 795.0, 245.0], [0.0, 0.0, 1.0]])
+    D = np.array([-0.2, 0.08, 1e-3, -2e-3, -0.01, 0.02, -0.01, 0.005, 1e-3, -5e-4, 2e-3, 1e-4])
+    jac = np.empty((2, 3))
+    for X in ([40.0, -30.0, 650.0], [-180.0, 120.0, 700.0], [0.0, 0.0, 500.0]):
+        u, v = _project_jacobian(*X, K, D, jac)
+        assert (u, v) == pytest.approx(_project(*X, K, D), abs=1e-9)
+        for i in range(3):
+            step = np.zeros(3)
+            step[i] = 1e-4
+            plus, minus = _project(*(X + step), K, D), _project(*(X - step), K, D)
+            np.testing.assert_allclose(jac[:, i], (np.subtract(plus, minus)) / 2e-4,
+                                       rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize(("garment", "level"), [("No.1", 0), ("No.1", 1), ("No.6", 0)])
+def test_normal_equations_match_the_residuals_differences(garment: str, level: int) -> None:
+    """The analytic gradient and metric (a strained map, nine genes, the edge mixture of the
+    inner ring included) agree with those of forward differences of the residuals."""
+    from photomodel.geometry import eps_from_rotation, rotation_from_eps, strained_matrices
+    from photomodel.search._gauss_newton import _map_derivatives, _weighted_products
+
+    model, rig, right, left, T, _ = _case(garment)
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
+    assert fitness.edge_mix_fraction > 0
+    x = np.concatenate([T[:3, 3] + [0.8, -0.5, 2.0], eps_from_rotation(T[:3, :3]) + 0.002,
+                        [-0.01, 0.005, 0.003]])
+
+    def maps(v: np.ndarray) -> np.ndarray:
+        return strained_matrices(v[:, :6], v[:, 6:])
+
+    fitness.evaluate_transforms(maps(x[None]))
+    offsets = fitness.last_offsets()
+    h = np.array([0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4, 1e-4]) * 2.0**level
+    poses = np.repeat(x[None], 10, axis=0)
+    poses[1:] += np.diag(h)
+    r, ok = fitness.residuals(maps(poses), offsets)
+    g_diff, m_diff = _weighted_products(r, ok, fitness.residual_weights(), h, np.arange(9),
+                                        np.zeros((0, 2)), rotation_from_eps(x[3:6]))
+    free = np.ones(9, dtype=bool)
+    g, m = fitness.normal_equations(maps(x[None])[0], _map_derivatives(maps, x, free), offsets)
+    np.testing.assert_allclose(g, g_diff, atol=0.01 * np.abs(g_diff).max())
+    scale = np.sqrt(np.outer(np.diag(m_diff), np.diag(m_diff)))
+    assert np.abs((m - m_diff) / scale).max() < 0.03
+    np.testing.assert_array_equal(m, m.T)
+    # Fewer genes: the rows and columns of the free ones.
+    free[[2, 7]] = False
+    g5, m5 = fitness.normal_equations(maps(x[None])[0], _map_derivatives(maps, x, free),
+                                      offsets)
+    np.testing.assert_allclose(g5, g[free], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(m5, m[np.ix_(free, free)], rtol=1e-9, atol=1e-12)

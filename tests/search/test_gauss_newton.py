@@ -195,14 +195,16 @@ def test_the_strain_jacobian_from_the_translation_matches_differences(level: int
     assert np.abs((m_pts - m_diff) / scale).max() < 0.03
 
 
-def test_gauss_newton_refines_a_rendered_garment_from_a_pixel_away() -> None:
+@pytest.mark.parametrize("jacobian", ["analytic", "differences"])
+def test_gauss_newton_refines_a_rendered_garment_from_a_pixel_away(jacobian: str) -> None:
     model, features, T = _case("No.1")
     fitness = SoftFitness(model, features, 0)
     truth = np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
     f_truth = float(fitness(truth[None])[0])
+    config = GaussNewtonConfig(jacobian=jacobian)  # type: ignore[arg-type]
     for seed in range(2):
         kick = np.random.default_rng(seed).normal(size=6) * [0.5, 0.5, 1.5, 0.002, 0.002, 0.001]
-        result = gauss_newton_refine(fitness, truth + kick, SPACE)
+        result = gauss_newton_refine(fitness, truth + kick, SPACE, config=config)
         M = pose_vectors_to_matrices(result.x)[0]
         assert np.linalg.norm(M[:3, 3] - T[:3, 3]) < 0.5
         angle = np.degrees(np.arccos(np.clip((np.trace(M[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)))
@@ -218,6 +220,8 @@ def test_the_pyramid_names_its_local_methods() -> None:
                   np.random.default_rng(0))
     with pytest.raises(ValueError, match="difference_steps"):
         GaussNewtonConfig(difference_steps=(0.1,) * 5)
+    with pytest.raises(ValueError, match="jacobian"):
+        GaussNewtonConfig(jacobian="secant")  # type: ignore[arg-type]
 
 
 class KinkedPeak(LinearResiduals):
