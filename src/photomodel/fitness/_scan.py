@@ -39,6 +39,7 @@ import math
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -46,7 +47,7 @@ import cv2
 import numba
 import numpy as np
 import scipy.fft
-from numba import njit, prange
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.camera import StereoRig
@@ -266,9 +267,9 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
     points = [(samples.p_in[:, :2], label_in, 1.0 / len(label_in)),
               (samples.p_out[:, :2], label_out, -1.0 / len(label_out))]
     workers = numba.get_num_threads()
-    peaks: list[tuple[float, float, float, float, float]] = []  # score, z, angle, ray x, y
     rig_key = tuple(a.tobytes() for a in (rig.cam1.K, rig.cam1.dist, rig.cam2.K, rig.cam2.dist,
                                            rig.R, rig.T))
+    depths = []    # (z, its pinhole grid, its group's kernel spectra, FFT shape)
     for first in range(0, len(zs), c.depths_per_kernel):
         # The group's depths are scanned on pinhole grids whose pixels are as large on the
         # garment as camera 1's are at the group's farthest depth: one set of kernels.
@@ -283,17 +284,27 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
             K_z = K1.copy()
             K_z[:2] *= z / z_ref
             h_z, w_z = int(np.ceil(h * z / z_ref)), int(np.ceil(w * z / z_ref))
-            rays, maps1, maps2 = _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))
-            both = np.zeros((len(colours), *shape), dtype=np.float32)
-            for i, (a1, a2) in enumerate(zip(agree1, agree2, strict=True)):
-                both[i, :h_z, :w_z] = 0.5 * (
-                    cv2.remap(a1, *maps1, cv2.INTER_LINEAR, borderValue=0.0)
-                    + cv2.remap(a2, *maps2, cv2.INTER_LINEAR, borderValue=0.0))
-            fitness = scipy.fft.irfft2(
-                _weighted_sum(scipy.fft.rfft2(both, workers=workers), kernels),
-                s=shape, workers=workers)[:, :h_z, :w_z]
-            for angle, v, u, score in _local_maxima(fitness):
-                peaks.append((score, float(z), float(thetas[angle]), *rays[v, u, :2]))
+            depths.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z)),
+                           kernels, shape))
+
+    def depth_peaks(depth: tuple[Any, ...]) -> list[tuple[float, float, float, float, float]]:
+        z, (rays, maps1, maps2), kernels, shape = depth
+        h_z, w_z = rays.shape[:2]
+        both = np.zeros((len(colours), *shape), dtype=np.float32)
+        for i, (a1, a2) in enumerate(zip(agree1, agree2, strict=True)):
+            both[i, :h_z, :w_z] = 0.5 * (
+                cv2.remap(a1, *maps1, cv2.INTER_LINEAR, borderValue=0.0)
+                + cv2.remap(a2, *maps2, cv2.INTER_LINEAR, borderValue=0.0))
+        fitness = scipy.fft.irfft2(_weighted_sum(scipy.fft.rfft2(both), kernels),
+                                   s=shape)[:, :h_z, :w_z]
+        return [(score, z, float(thetas[angle]), *rays[v, u, :2])
+                for angle, v, u, score in _local_maxima(fitness)]
+
+    # Depths side by side, one thread each (the FFTs and kernels release the GIL): 1.9x on
+    # two threads, where threads inside each depth's small FFTs gave 1.2x.
+    peaks: list[tuple[float, float, float, float, float]] = []
+    for found_at_depth in _map_threads(depth_peaks, depths, workers):
+        peaks.extend(found_at_depth)
     peaks.sort(reverse=True)
     found = _distinct_peaks(peaks, lower, upper, c, len(zs) * len(thetas))
     # The scan's grid is square to camera 1; a garment on the table faces the rig.
@@ -314,6 +325,19 @@ def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: S
     best = best[fitness[best] >= fitness[best[0]] - margin]
     return ScanResult(found.poses[best], found.scores[best], found.maps, found.trusted,
                       found.light_offsets[best])
+
+
+_THREADS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _map_threads(work: Callable[[Any], Any], items: list[Any], workers: int) -> list[Any]:
+    """``[work(item) for item in items]``, on ``workers`` threads (kept for the next call)
+    when more than one."""
+    if workers <= 1 or len(items) <= 1:
+        return [work(item) for item in items]
+    if workers not in _THREADS:
+        _THREADS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="photomodel-scan")
+    return list(_THREADS[workers].map(work, items))
 
 
 _SPECTRA: dict[int, OrderedDict[tuple[Any, ...], NDArray[np.complex64]]] = {}
@@ -444,11 +468,11 @@ def _splat(out, p, slot, weight, cos, sin, fx, fy):  # pragma: no cover - compil
             out[a, k, r1, c1] += weight * fu * fv
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, nogil=True, fastmath=True)
 def _weighted_sum(spectrum, kernels):  # pragma: no cover - compiled
     """``sum_k spectrum[k] * kernels[a, k]`` for every angle ``a`` (A, H, W) complex."""
     out = np.zeros((kernels.shape[0], spectrum.shape[1], spectrum.shape[2]), dtype=spectrum.dtype)
-    for a in prange(kernels.shape[0]):
+    for a in range(kernels.shape[0]):
         for k in range(kernels.shape[1]):
             for i in range(spectrum.shape[1]):
                 for j in range(spectrum.shape[2]):
@@ -465,13 +489,13 @@ def _local_maxima(f: NDArray[np.float64], per_map: int = 4
             for r, c, v in found[a] if v > 0]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def _top_maxima(f, per_map):  # pragma: no cover - compiled
     """Rows (A, per_map, 3) of (row, column, value) of each map's highest local maxima,
     best first; value 0 where a map has fewer."""
     A, H, W = f.shape
     out = np.zeros((A, per_map, 3))
-    for a in prange(A):
+    for a in range(A):
         for r in range(H):
             for c in range(W):
                 v = f[a, r, c]
