@@ -110,6 +110,15 @@ class GaussNewtonConfig:
         wrinkles, wood, overlap, gripper, blur) the same successes, mean time 88 -> 82 ms.
     converged_steps : float
         Stop after an accepted step no larger than this many difference steps in any gene.
+    min_gain : float
+        Also stop after two accepted steps in a row that each raised the fitness by less
+        than this (0: never). On a flat ridge the Welsch metric overstates the fitness's
+        curvature and the steps creep: a tilted striped shirt's level-0 refinement ran its
+        40 steps moving the tilt 0.05-0.2 deg each for 1e-5 a step (doubling the step
+        while the fitness rose did not end it sooner). 1e-5 against none, on 36 tilt, wood
+        and paper scenes: mean time 70 -> 65 ms a pair, the same successes and median
+        errors; the grey sock No.6 in 300 paper trials: the same means and std to 0.004 mm
+        and 0.001 deg; 48 wrinkled, occluded and dim scenes unchanged.
     damping0 : float
         Start value of ``lambda``.
     max_damping : float
@@ -162,6 +171,7 @@ class GaussNewtonConfig:
     difference_steps: tuple[float, ...] = (0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5)
     max_iterations: int = 40
     converged_steps: float = 2.5
+    min_gain: float = 1e-5
     damping0: float = 1e-3
     max_damping: float = 1e4
     rejected_damping: float = 0.25
@@ -265,6 +275,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     differenced = False     # the gradient from the fitness's own differences
     genes = len(x)
     differenced_genes = 6 if by_points else genes
+    small_gains = 0     # accepted steps in a row that gained less than min_gain
     for _ in range(c.max_iterations):
         if analytic:
             gradient, metric = fitness.normal_equations(
@@ -303,10 +314,11 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         if candidate_value <= f:
             reason = NO_ASCENT
             break
+        small_gains = small_gains + 1 if candidate_value - f < c.min_gain else 0
         x, f = candidate, candidate_value
         offsets = fitness.last_offsets()
         history.append(f)
-        if np.all(np.abs(step) <= c.converged_steps * h):
+        if np.all(np.abs(step) <= c.converged_steps * h) or small_gains >= 2:
             reason = "gauss-newton: converged"
             break
     trace = np.asarray(history)
