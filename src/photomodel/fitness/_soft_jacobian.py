@@ -226,10 +226,10 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
         if cam == 0:
             _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
-                                     weights, band, band_slope, band_moved, band_ok, out_gradient[0],
-                                     out_metric[0])
+                                     weights, band, band_slope, band_moved, band_ok,
+                                     out_gradient[0], out_metric[0])
         else:
             _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
-                                     weights, band, band_slope, band_moved, band_ok, out_gradient[1],
-                                     out_metric[1])
+                                     weights, band, band_slope, band_moved, band_ok,
+                                     out_gradient[1], out_metric[1])

@@ -145,9 +145,10 @@ class GaussNewtonConfig:
         and their products; at level 0 0.8 against 1.7 ms on two threads), else from forward
         differences of the residuals (``difference_steps``).
     strain_by_differences : bool
-        With ``jacobian="differences"``: take the strain genes' Jacobian from residual differences (three more poses an
-        iteration) instead of from the translation's and the samples' model coordinates
-        (``ResidualFitness.residual_points``; see ``_weighted_products``).
+        With ``jacobian="differences"``: take the strain genes' Jacobian from residual
+        differences (three more poses an iteration) instead of from the translation's and
+        the samples' model coordinates (``ResidualFitness.residual_points``; see
+        ``_weighted_products``).
     strain_weights : (float, float)
         Prior on the strain: the refinement maximises the fitness less ``w_mean * m^2 +
         w_shape * (d^2 + e_xy^2)``, with the mean strain ``m = (e_xx + e_yy) / 2`` and ``d =
