@@ -342,3 +342,26 @@ def test_a_trusted_scan_drops_hypotheses_far_below_the_best() -> None:
         n = int(np.sum(fitness >= fitness[0] - margin))
         np.testing.assert_array_equal(kept.poses, every.poses[:n])
     assert np.linalg.norm(every.poses[0, :3] - T_true[:3, 3]) < 30.0
+
+
+def test_the_scan_finds_the_same_peaks_on_one_thread_and_on_two() -> None:
+    """The depths run on threads (``_map_threads``): the peaks and scores are those of the
+    serial scan, and a forked child would start its own threads."""
+    import numba
+
+    from photomodel.fitness import _scan
+
+    model, features, _ = _case("No.6", "gripper")
+    space = SearchSpace.from_ranges()
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        serial = scan_flat_poses(model, features, space.lower, space.upper)
+    finally:
+        numba.set_num_threads(threads)
+    calls: list[int] = []
+    assert _scan._map_threads(lambda i: calls.append(i) or i * i, [1, 2, 3], 2) == [1, 4, 9]
+    assert sorted(calls) == [1, 2, 3]
+    threaded = scan_flat_poses(model, features, space.lower, space.upper)
+    np.testing.assert_array_equal(serial.poses, threaded.poses)
+    np.testing.assert_array_equal(serial.scores, threaded.scores)

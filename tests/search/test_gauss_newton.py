@@ -332,3 +332,38 @@ def test_an_unconverged_gauss_newton_hands_over_to_cma_above_level_0() -> None:
     off = replace(short, unconverged_to_cma=False)
     unchanged = _local_at(fitness, f0, 1, x0, SPACE, off, rng)
     assert unchanged.stop_reason == "gauss-newton: 1 iterations"
+
+
+def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
+    """``min_gain`` ends a creep after two small gains in a row; ``min_step`` ends the damping
+    of a rejected step once it is under that many difference steps."""
+    class Stiff(LinearResiduals):
+        """Residuals whose differences (the batch's poses after its first) are three times
+        steeper than the fitness: each step goes a third of the way, and the gains shrink."""
+
+        def residuals(self, T: np.ndarray, offsets: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+            r, ok = super().residuals(T, offsets)
+            return r[:1] + 3.0 * (r - r[:1]), ok
+
+    creeping = Stiff(TARGET)
+    x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    full = gauss_newton_refine(creeping, x0, SPACE, config=GaussNewtonConfig(min_gain=0.0))
+    early = gauss_newton_refine(creeping, x0, SPACE, config=GaussNewtonConfig(min_gain=0.05))
+    assert early.stop_reason == "gauss-newton: converged" and early.iterations < full.iterations
+    gains = np.diff(early.best_history)
+    assert np.all(gains[-2:] < 0.05) and gains[-3] >= 0.05
+    fitness = LinearResiduals(TARGET)
+    # At the peak every step is rejected: with min_step the damping ends at the first
+    # rejected step under it, without it only at max_damping.
+    plain = GaussNewtonConfig(difference_on_stall=False)
+    fitness.calls = 0
+    at_peak = gauss_newton_refine(fitness, TARGET, SPACE, config=plain)
+    short = fitness.calls
+    fitness.calls = 0
+    gauss_newton_refine(fitness, TARGET, SPACE, config=replace(plain, min_step=0.0,
+                                                                  rejected_damping=0.0))
+    assert at_peak.stop_reason == "gauss-newton: no ascent step" and short < fitness.calls
+    for bad in ({"min_gain": -1.0}, {"min_step": -1.0}, {"rejected_damping": -1.0}):
+        with pytest.raises(ValueError, match="min_gain"):
+            GaussNewtonConfig(**bad)  # type: ignore[arg-type]

@@ -36,6 +36,7 @@ image position or angle, are hypotheses for :func:`~photomodel.search.pyramid_se
 from __future__ import annotations
 
 import math
+import os
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable
@@ -327,17 +328,18 @@ def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: S
                       found.light_offsets[best])
 
 
-_THREADS: dict[int, ThreadPoolExecutor] = {}
+_THREADS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 
 
 def _map_threads(work: Callable[[Any], Any], items: list[Any], workers: int) -> list[Any]:
-    """``[work(item) for item in items]``, on ``workers`` threads (kept for the next call)
-    when more than one."""
+    """``[work(item) for item in items]``, on ``workers`` threads when more than one (kept
+    for the next call, per process: a forked child does not inherit the threads)."""
     if workers <= 1 or len(items) <= 1:
         return [work(item) for item in items]
-    if workers not in _THREADS:
-        _THREADS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="photomodel-scan")
-    return list(_THREADS[workers].map(work, items))
+    key = (os.getpid(), workers)
+    if key not in _THREADS:
+        _THREADS[key] = ThreadPoolExecutor(workers, thread_name_prefix="photomodel-scan")
+    return list(_THREADS[key].map(work, items))
 
 
 _SPECTRA: dict[int, OrderedDict[tuple[Any, ...], NDArray[np.complex64]]] = {}
