@@ -348,3 +348,38 @@ def test_normal_equations_match_the_residuals_differences(garment: str, level: i
                                       offsets)
     np.testing.assert_allclose(g5, g[free], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(m5, m[np.ix_(free, free)], rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize(("garment", "condition", "level"),
+                         [("No.6", "paper", 0), ("No.6", "gripper", 1), ("No.1", "paper", 0)])
+def test_the_full_gradient_follows_the_fitness_where_the_held_one_does_not(
+        garment: str, condition: str, level: int) -> None:
+    """With the offsets' motion (the implicit function theorem on their objective) the
+    gradient is the fitness's own (central differences); with the offsets held it is not,
+    where the band decides (the grey sock)."""
+    from photomodel.geometry import eps_from_rotation, strained_matrices
+    from photomodel.search._gauss_newton import _map_derivatives
+
+    model, rig, right, left, T, _ = _case(garment, condition)
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
+    x = np.concatenate([T[:3, 3] + [0.3, -0.2, 0.8], eps_from_rotation(T[:3, :3]) + 0.0005,
+                        [-0.003, 0.002, 0.001]])
+
+    def maps(v: np.ndarray) -> np.ndarray:
+        return strained_matrices(v[:, :6], v[:, 6:])
+
+    fitness.evaluate_transforms(maps(x[None]))
+    offsets = fitness.last_offsets()
+    dA = _map_derivatives(maps, x, np.ones(9, dtype=bool))
+    held, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets)
+    full, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets, with_offsets=True)
+    h = np.array([0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4, 1e-4]) * 2.0**level
+    poses = np.repeat(x[None], 18, axis=0)
+    poses[:9] += np.diag(h)
+    poses[9:] -= np.diag(h)
+    values = fitness.evaluate_transforms(maps(poses))
+    central = (values[:9] - values[9:]) / (2 * h)
+    scale = np.abs(central).max()
+    assert np.abs(full - central).max() < 0.05 * scale
+    if garment == "No.6":
+        assert np.abs(held - central).max() > 0.3 * scale

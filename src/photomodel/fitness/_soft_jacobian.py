@@ -133,13 +133,21 @@ def _accumulate(r, coef, basis, k, scale, weight, inner, pair, lead, gradient,
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scale, table_out,
-                             mix_t, lin_in, o, weights, band, band_slope, band_moved, band_ok,
-                             gradient, metric):  # pragma: no cover - compiled
-    """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``
-    (see :func:`soft_normal_kernel`); ``band`` and ``band_slope`` (N_out, 3, 2),
-    ``band_moved`` (N_out, 2, G) and ``band_ok`` are work space."""
+                             mix_t, lin_in, o, weights, wb_weight, band, band_slope, band_moved,
+                             band_ok, gradient, metric, hess_o, cross_o,
+                             slope_o):  # pragma: no cover - compiled
+    """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
+    the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
+    :func:`soft_normal_kernel`); ``band`` and ``band_slope`` (N_out, 3, 2), ``band_moved``
+    (N_out, 2, G) and ``band_ok`` are work space."""
     n_in = p_in.shape[0]
+    n_out = p_out.shape[0]
     G = dX.shape[0]
+    W = np.empty(3)
+    e = np.empty(3)
+    we = np.empty(3)
+    for c in range(3):
+        W[c] = scale[c] * scale[c]
     sample = np.empty(3)
     du = np.empty(3)
     dv = np.empty(3)
@@ -169,6 +177,10 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             band_moved[j, 1, g] = basis[1, g]
         _accumulate(r, coef, basis, 2, scale, weights[n_in + j], False, pair, lead, gradient,
                     metric)
+        # d (band agreement) / d o = a W e, e = sample - colour - o; the band counts against.
+        a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+        for c in range(3):
+            slope_o[c] -= a * scale[c] * r[c] / n_out
     for j in range(n_in):
         if not _sample_jacobian(M, t, dX, K, D, p_in[j, 0], p_in[j, 1], img, sample, du, dv,
                                 basis[:2], jac):
@@ -176,6 +188,23 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
         for c in range(3):
             coef[c, 0] = du[c]
             coef[c, 1] = dv[c]
+        # The offsets maximise the mean agreement of the plain differences (less the chroma
+        # penalty): its Hessian in o and its cross derivative with the genes.
+        d2 = 0.0
+        for c in range(3):
+            e[c] = sample[c] - f_in[j, c] - o[c]
+            we[c] = W[c] * e[c]
+            d2 += e[c] * we[c]
+        a = np.exp(-0.5 * d2) / n_in
+        for c in range(3):
+            for m in range(3):
+                hess_o[c, m] += a * we[c] * we[m]
+            hess_o[c, c] -= a * W[c]
+            # a W (I - e e^T W) d sample / d gene, the sample's derivative du u' + dv v'
+            row_u = a * (W[c] * du[c] - we[c] * (we[0] * du[0] + we[1] * du[1] + we[2] * du[2]))
+            row_v = a * (W[c] * dv[c] - we[c] * (we[0] * dv[0] + we[1] * dv[1] + we[2] * dv[2]))
+            for g in range(G):
+                cross_o[c, g] += row_u * basis[0, g] + row_v * basis[1, g]
         k = table_out[j]
         rank = 2
         if mix_t > 0.0 and k >= 0 and band_ok[k]:
@@ -191,22 +220,41 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                 basis[2, g] = band_moved[k, 0, g]
                 basis[3, g] = band_moved[k, 1, g]
             rank = 4
+            # d expected / d o = I - slope (the offsets' gain on the model's share)
+            a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])) / n_in
+            for m in range(3):
+                for c in range(3):
+                    slope_o[m] += a * scale[c] * r[c] * ((1.0 if c == m else 0.0) - slope[c, m])
         else:
             for c in range(3):
                 r[c] = (sample[c] - f_in[j, c] - o[c]) * scale[c]
+            a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])) / n_in
+            for c in range(3):
+                slope_o[c] += a * scale[c] * r[c]
         _accumulate(r, coef, basis, rank, scale, weights[j], weights[j] > 0.0, pair, lead,
                     gradient, metric)
     for p in range(G):
         for q in range(p):
             metric[q, p] = metric[p, q]
+    for c in (1, 2):     # the chroma penalty wb (o_a^2 + o_b^2)
+        hess_o[c, c] -= 2.0 * wb_weight
+        slope_o[c] -= 2.0 * wb_weight * o[c]
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2,
-                       scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights,
-                       out_gradient, out_metric):  # pragma: no cover - compiled
+                       scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
+                       out_gradient, out_metric, out_hess_o, out_cross_o,
+                       out_slope_o):  # pragma: no cover - compiled
     """Fill ``out_gradient`` (2, G) and ``out_metric`` (2, G, G) with each camera's held-offset
     gradient ``-sum_j w_j J_j^T r_j`` and inner metric ``sum_inner w_j J_j^T J_j``.
+
+    With the offsets: ``out_hess_o`` (2, 3, 3) and ``out_cross_o`` (2, 3, G), the Hessian in
+    the offsets of each camera's offset objective (the mean agreement of the inner points'
+    plain differences less the chroma penalty, which the offsets maximise) and its cross
+    derivative with the genes, and ``out_slope_o`` (2, 3) the camera term's derivative in its
+    offsets: the offsets move with the pose by ``-hess^-1 cross`` (the implicit function
+    theorem), and the term with them by ``slope_o`` times that.
 
     ``Ms`` (2, 3, 3) and ``ts`` (2, 3) map model points into each camera (``Ms[c][:, :2]``
     used), ``dXs`` (2, G, 3, 3) the camera point's derivative along each gene (coefficients
@@ -226,10 +274,12 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
         if cam == 0:
             _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
-                                     weights, band, band_slope, band_moved, band_ok,
-                                     out_gradient[0], out_metric[0])
+                                     weights, wb_weight, band, band_slope, band_moved,
+                                     band_ok, out_gradient[0], out_metric[0],
+                                     out_hess_o[0], out_cross_o[0], out_slope_o[0])
         else:
             _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
-                                     weights, band, band_slope, band_moved, band_ok,
-                                     out_gradient[1], out_metric[1])
+                                     weights, wb_weight, band, band_slope, band_moved,
+                                     band_ok, out_gradient[1], out_metric[1],
+                                     out_hess_o[1], out_cross_o[1], out_slope_o[1])

@@ -87,7 +87,7 @@ class NormalEquationsFitness(ResidualFitness, Protocol):
     (``SoftFitness.normal_equations``)."""
 
     def normal_equations(self, A_cam1_model: NDArray[np.float64], dA: NDArray[np.float64],
-                         offsets: NDArray[np.float64]
+                         offsets: NDArray[np.float64], with_offsets: bool = False
                          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 
 
@@ -144,6 +144,14 @@ class GaussNewtonConfig:
         slope through the projection: one pose an iteration instead of seven residual poses
         and their products; at level 0 0.8 against 1.7 ms on two threads), else from forward
         differences of the residuals (``difference_steps``).
+    offsets_in_gradient : bool
+        With the analytic Jacobian, add to the held-offset gradient the offsets' own motion
+        with the pose (``SoftFitness.normal_equations(with_offsets=True)``: the implicit
+        function theorem on the offsets' objective): the fitness's full gradient. The held
+        one can point away from it where the band decides (the grey sock No.6: off by 50-320
+        % of the gradient's largest component on levels 0 and 1, the full one by 0.1-4 %,
+        against central differences of the fitness), so the refinement stalled and went on
+        with the fitness's own differences (nine poses an iteration).
     strain_by_differences : bool
         With ``jacobian="differences"``: take the strain genes' Jacobian from residual
         differences (three more poses an iteration) instead of from the translation's and
@@ -181,6 +189,7 @@ class GaussNewtonConfig:
     strain_step: float = 1e-4
     max_strain: float = 0.1
     jacobian: Literal["analytic", "differences"] = "analytic"
+    offsets_in_gradient: bool = True
     strain_by_differences: bool = False
     strain_weights: tuple[float, float] = (10.0, 30.0)
 
@@ -282,7 +291,8 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     for _ in range(c.max_iterations):
         if analytic:
             gradient, metric = fitness.normal_equations(
-                transforms(x[None])[0], _map_derivatives(transforms, x, free), offsets)
+                transforms(x[None])[0], _map_derivatives(transforms, x, free), offsets,
+                with_offsets=c.offsets_in_gradient)
             evaluations += 1
         else:
             poses = np.repeat(x[None], differenced_genes + 1, axis=0)
