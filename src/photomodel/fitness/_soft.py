@@ -261,10 +261,10 @@ class SoftFitness:
         Returns
         -------
         gradient : ndarray (G,)
-            ``-sum_j w_j J_j^T r_j`` over both cameras' samples (plus the offsets' term) (:meth:`residuals`,
+            ``-sum_j w_j J_j^T r_j`` over both cameras' samples (:meth:`residuals`,
             :meth:`residual_weights`; ``w_j`` a sample's weight times its agreement
             ``exp(-|r_j|^2 / 2)``, averaged over the cameras): the fitness's gradient with
-            the offsets held.
+            the offsets held; with ``with_offsets``, plus the offsets' term.
         metric : ndarray (G, G)
             ``sum w_j J_j^T J_j`` over the inner samples.
         """
