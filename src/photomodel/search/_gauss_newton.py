@@ -14,7 +14,10 @@ The held offsets' gradient is not always the fitness's: the offsets maximise the
 points' agreement only, and the band's agreement moves with them, so where the band decides
 the fitness (a plain garment on a table of a close colour) the two can point apart (at a
 stall on the grey sock No.6, level 0: a step along the held gradient raised the held
-fitness by 4e-4 and lowered the fitness by 9e-5). Where no step along it is accepted, the
+fitness by 4e-4 and lowered the fitness by 9e-5). With the analytic Jacobian the gradient
+adds the offsets' own motion with the pose (``GaussNewtonConfig.offsets_in_gradient``: the
+implicit function theorem on the offsets' objective), which makes it the fitness's full
+gradient. Where no step along it is accepted (now rarely), the
 gradient is taken from the fitness's own forward differences (six more poses an iteration)
 for the rest of the refinement; a stall after that is a peak (CMA-ES from there raised the
 fitness by less than 3e-4 on nine scenes, where it had raised it by up to 0.01 before).
