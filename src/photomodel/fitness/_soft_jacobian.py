@@ -9,6 +9,10 @@ and the map's derivative. An inner-ring point that expects its colour mixed with
 seen at its band point (the edge mixture) also moves with that band point's sample. One pose
 evaluated this way replaces the pose and its forward differences (seven or ten residual
 poses) and the products of :func:`~photomodel.search._gauss_newton._weighted_products`.
+
+The same pass sums what the light offsets need to follow the pose: the Hessian in the offsets
+of the objective they maximise and its cross derivative with the genes, and each camera term's
+derivative in its offsets (``SoftFitness.normal_equations(with_offsets=True)``).
 """
 
 from __future__ import annotations
