@@ -21,20 +21,15 @@ import numpy as np
 from numba import njit, prange
 
 from photomodel.fitness._kernels import _project_jacobian
-from photomodel.fitness._soft_kernels import _LOGS, _OPPONENT, _light_gain
+from photomodel.fitness._soft_kernels import _LOGS, _OPPONENT, _bilinear_cell, _light_gain
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _bilinear_slope(img, u, v, out, du, dv):  # pragma: no cover - compiled
     """``_bilinear`` of ``img`` at (u, v) into ``out``, and its slopes ``du``, ``dv`` (3,)."""
-    h = img.shape[0]
-    w = img.shape[1]
-    if not (u >= 0.0 and v >= 0.0 and u <= w - 1.0 and v <= h - 1.0):
+    iu, iv, fu, fv = _bilinear_cell(img, u, v)
+    if iu < 0:
         return False
-    iu = min(int(u), w - 2)
-    iv = min(int(v), h - 2)
-    fu = u - iu
-    fv = v - iv
     for c in range(3):
         a = img[iv, iu, c]
         b = img[iv, iu + 1, c]
@@ -96,16 +91,20 @@ def _mixture_slope(model_lin, gain, table, t, out, slope):  # pragma: no cover -
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _accumulate(r, coef, basis, k, scale, weight, inner, pair, lead, gradient,
+def _agreement(r):  # pragma: no cover - compiled
+    """A sample's agreement ``exp(-|r|^2 / 2)`` from its scaled residual ``r`` (3,)."""
+    return np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _accumulate(r, coef, basis, k, scale, w, inner, pair, lead, gradient,
                 metric):  # pragma: no cover - compiled
     """Add one sample's ``-J^T (w r)`` to ``gradient`` and, for an inner point, ``w J^T J``
     to the lower triangle of ``metric``. Its Jacobian is low-rank, row ``c`` of ``J`` being
     ``scale[c] sum_i coef[c, i] basis[i]`` over the first ``k`` rows of ``basis`` (G,) (the
     pixel motions of the sample, and of its band point for an edge mixture); ``w`` is its
-    agreement ``exp(-|r|^2 / 2)`` times ``weight``. ``pair`` (4, 4) and ``lead`` (4,) are
+    agreement (:func:`_agreement`) times its weight. ``pair`` (4, 4) and ``lead`` (4,) are
     work space."""
-    d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
-    w = np.exp(-0.5 * d2) * weight
     G = basis.shape[1]
     for i in range(k):
         along = 0.0
@@ -179,10 +178,10 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
         for g in range(G):
             band_moved[j, 0, g] = basis[0, g]
             band_moved[j, 1, g] = basis[1, g]
-        _accumulate(r, coef, basis, 2, scale, weights[n_in + j], False, pair, lead, gradient,
-                    metric)
+        a = _agreement(r)
+        _accumulate(r, coef, basis, 2, scale, a * weights[n_in + j], False, pair, lead,
+                    gradient, metric)
         # d (band agreement) / d o = a W e, e = sample - colour - o; the band counts against.
-        a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
         for c in range(3):
             slope_o[c] -= a * scale[c] * r[c] / n_out
     for j in range(n_in):
@@ -225,17 +224,18 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                 basis[3, g] = band_moved[k, 1, g]
             rank = 4
             # d expected / d o = I - slope (the offsets' gain on the model's share)
-            a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])) / n_in
+            a = _agreement(r)
             for m in range(3):
                 for c in range(3):
-                    slope_o[m] += a * scale[c] * r[c] * ((1.0 if c == m else 0.0) - slope[c, m])
+                    slope_o[m] += (a / n_in * scale[c] * r[c]
+                                   * ((1.0 if c == m else 0.0) - slope[c, m]))
         else:
             for c in range(3):
                 r[c] = (sample[c] - f_in[j, c] - o[c]) * scale[c]
-            a = np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])) / n_in
+            a = _agreement(r)
             for c in range(3):
-                slope_o[c] += a * scale[c] * r[c]
-        _accumulate(r, coef, basis, rank, scale, weights[j], weights[j] > 0.0, pair, lead,
+                slope_o[c] += a / n_in * scale[c] * r[c]
+        _accumulate(r, coef, basis, rank, scale, a * weights[j], weights[j] > 0.0, pair, lead,
                     gradient, metric)
     for p in range(G):
         for q in range(p):

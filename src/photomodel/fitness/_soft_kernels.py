@@ -16,15 +16,24 @@ _LOGS = np.linalg.inv(_OPPONENT)
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _bilinear(img, u, v, out):  # pragma: no cover - compiled
+def _bilinear_cell(img, u, v):  # pragma: no cover - compiled
+    """The top-left pixel (iu, iv) of the 2 x 2 cell that interpolates ``img`` at (u, v),
+    and the fractions (fu, fv) across it; iu = -1 where (u, v) lies outside the image."""
     h = img.shape[0]
     w = img.shape[1]
     if not (u >= 0.0 and v >= 0.0 and u <= w - 1.0 and v <= h - 1.0):
-        return False
+        return -1, -1, 0.0, 0.0
     iu = min(int(u), w - 2)
     iv = min(int(v), h - 2)
-    fu = u - iu
-    fv = v - iv
+    return iu, iv, u - iu, v - iv
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _bilinear(img, u, v, out):  # pragma: no cover - compiled
+    """``out`` (3,) = the bilinear sample of ``img`` at (u, v); False outside the image."""
+    iu, iv, fu, fv = _bilinear_cell(img, u, v)
+    if iu < 0:
+        return False
     for c in range(3):
         top = img[iv, iu, c] * (1.0 - fu) + img[iv, iu + 1, c] * fu
         bottom = img[iv + 1, iu, c] * (1.0 - fu) + img[iv + 1, iu + 1, c] * fu
