@@ -312,24 +312,38 @@ def test_projection_jacobian_matches_differences_with_every_distortion_term() ->
                                        rtol=1e-6, atol=1e-9)
 
 
+def _strained_maps(genes: np.ndarray) -> np.ndarray:
+    """Maps (P, 4, 4) of pose vectors with strains (P, 9)."""
+    from photomodel.geometry import strained_matrices
+
+    return strained_matrices(genes[:, :6], genes[:, 6:])
+
+
+def _strained_case(garment: str, condition: str, level: int, shift_mm: list[float],
+                   eps_kick: float, strain: list[float]
+                   ) -> tuple[SoftFitness, np.ndarray, np.ndarray]:
+    """A scene's level fitness, a strained gene vector (9,) off its true pose by
+    ``shift_mm`` and ``eps_kick``, and the light offsets the fitness found there."""
+    from photomodel.geometry import eps_from_rotation
+
+    model, rig, right, left, T, _ = _case(garment, condition)
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
+    x = np.concatenate([T[:3, 3] + shift_mm, eps_from_rotation(T[:3, :3]) + eps_kick, strain])
+    fitness.evaluate_transforms(_strained_maps(x[None]))
+    return fitness, x, fitness.last_offsets()
+
+
 @pytest.mark.parametrize(("garment", "level"), [("No.1", 0), ("No.1", 1), ("No.6", 0)])
 def test_normal_equations_match_the_residuals_differences(garment: str, level: int) -> None:
     """The analytic gradient and metric (a strained map, nine genes, the edge mixture of the
     inner ring included) agree with those of forward differences of the residuals."""
-    from photomodel.geometry import eps_from_rotation, rotation_from_eps, strained_matrices
+    from photomodel.geometry import rotation_from_eps
     from photomodel.search._gauss_newton import _map_derivatives, _weighted_products
 
-    model, rig, right, left, T, _ = _case(garment)
-    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
+    fitness, x, offsets = _strained_case(garment, "paper", level, [0.8, -0.5, 2.0], 0.002,
+                                         [-0.01, 0.005, 0.003])
     assert fitness.edge_mix_fraction > 0
-    x = np.concatenate([T[:3, 3] + [0.8, -0.5, 2.0], eps_from_rotation(T[:3, :3]) + 0.002,
-                        [-0.01, 0.005, 0.003]])
-
-    def maps(v: np.ndarray) -> np.ndarray:
-        return strained_matrices(v[:, :6], v[:, 6:])
-
-    fitness.evaluate_transforms(maps(x[None]))
-    offsets = fitness.last_offsets()
+    maps = _strained_maps
     h = np.array([0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4, 1e-4]) * 2.0**level
     poses = np.repeat(x[None], 10, axis=0)
     poses[1:] += np.diag(h)
@@ -357,19 +371,11 @@ def test_the_full_gradient_follows_the_fitness_where_the_held_one_does_not(
     """With the offsets' motion (the implicit function theorem on their objective) the
     gradient is the fitness's own (central differences); with the offsets held it is not,
     where the band decides (the grey sock)."""
-    from photomodel.geometry import eps_from_rotation, strained_matrices
     from photomodel.search._gauss_newton import _map_derivatives
 
-    model, rig, right, left, T, _ = _case(garment, condition)
-    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
-    x = np.concatenate([T[:3, 3] + [0.3, -0.2, 0.8], eps_from_rotation(T[:3, :3]) + 0.0005,
-                        [-0.003, 0.002, 0.001]])
-
-    def maps(v: np.ndarray) -> np.ndarray:
-        return strained_matrices(v[:, :6], v[:, 6:])
-
-    fitness.evaluate_transforms(maps(x[None]))
-    offsets = fitness.last_offsets()
+    fitness, x, offsets = _strained_case(garment, condition, level, [0.3, -0.2, 0.8], 0.0005,
+                                         [-0.003, 0.002, 0.001])
+    maps = _strained_maps
     dA = _map_derivatives(maps, x, np.ones(9, dtype=bool))
     held, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets)
     full, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets, with_offsets=True)

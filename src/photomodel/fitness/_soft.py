@@ -238,8 +238,8 @@ class SoftFitness:
     def normal_equations(self, A_cam1_model: NDArray[np.float64], dA: NDArray[np.float64],
                          offsets: NDArray[np.float64], with_offsets: bool = False
                          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The residuals' held-offset gradient and inner metric at one map, from the analytic
-        Jacobian (:mod:`photomodel.fitness._soft_jacobian`).
+        """The residuals' gradient (offsets held, or with their motion) and inner metric at
+        one map, from the analytic Jacobian (:mod:`photomodel.fitness._soft_jacobian`).
 
         Parameters
         ----------

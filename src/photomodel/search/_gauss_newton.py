@@ -276,7 +276,8 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         return float(values(v[None])[0])
 
     analytic = c.jacobian == "analytic" and isinstance(fitness, NormalEquationsFitness)
-    weights = np.asarray(fitness.residual_weights(), dtype=np.float64)
+    weights = (np.zeros(0) if analytic
+               else np.asarray(fitness.residual_weights(), dtype=np.float64))
     # The strain's Jacobian from the translation's (no residual poses of its own).
     by_points = strained and not c.strain_by_differences and not analytic
     points = (np.ascontiguousarray(fitness.residual_points()[:, :2], dtype=np.float64)
