@@ -50,7 +50,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--y-mm", type=float, nargs=2, default=(-195.0, 195.0), metavar=("LO", "HI"))
     p.add_argument("--z-mm", type=float, nargs=2, default=(500.0, 900.0), metavar=("LO", "HI"))
     p.add_argument("--theta-deg", type=float, default=53.0, help="in-plane angle range +-")
-    p.add_argument("--tilt-deg", type=float, default=10.0, help="tilt range +-")
+    p.add_argument("--tilt-deg", type=float, default=10.0,
+                   help="tilt range +-, from the table that faces the rig")
     p.add_argument("--min-score", type=float, default=None,
                    help="score in [0, 1] from which the garment counts as found (default: the "
                         f"calibrated threshold with the soft fitness, {DEFAULT_MIN_SCORE} with "
@@ -66,13 +67,16 @@ def run(args: argparse.Namespace) -> int:
     if args.generations < 1:
         raise InputError("--generations", f"expected a positive count, got {args.generations}")
     try:
-        space = SearchSpace.from_ranges(tuple(args.x_mm), tuple(args.y_mm), tuple(args.z_mm),
-                                        args.theta_deg, args.tilt_deg)
         ga = (GAConfig.paper if args.paper else GAConfig)(max_generations=args.generations)
     except ValueError as exc:
-        raise InputError("search space", str(exc)) from None
+        raise InputError("--generations", str(exc)) from None
     model = load_model(args.model)
     rig = load_stereo(args.stereo)
+    try:    # the tilt is measured from the table that faces the rig
+        space = SearchSpace.from_ranges(tuple(args.x_mm), tuple(args.y_mm), tuple(args.z_mm),
+                                        args.theta_deg, args.tilt_deg, rig.R_cam1_facing)
+    except ValueError as exc:
+        raise InputError("search space", str(exc)) from None
     right = read_color_image(args.right)
     left = read_color_image(args.left)
     rig.cam1.check_image(right, str(args.right))

@@ -208,7 +208,8 @@ def identify_in_features(
     features : StereoFeatures
     config : IdentifyConfig, optional
     space : SearchSpace, optional
-        Pose search space of every model (default: the paper's experiment).
+        Pose search space of every model (default: the paper's experiment, the tilt measured
+        from the table that faces the rig, as in :func:`~photomodel.locate.locate`).
     rng : int, Generator or None
         Seed of the searches.
     t0 : float, optional
@@ -221,7 +222,7 @@ def identify_in_features(
     t0 = time.perf_counter() if t0 is None else t0
     c = config or IdentifyConfig()
     min_score = load_threshold().min_score if c.min_score is None else c.min_score
-    space = space or SearchSpace.from_ranges()
+    space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     base = int(np.random.default_rng(rng).integers(0, 2**62))
     evidence: NDArray[np.float64] = colour_evidence(list(models), features, c.screen)
     order = np.argsort(-evidence, kind="stable")

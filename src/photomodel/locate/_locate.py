@@ -203,7 +203,8 @@ def locate(
     rng : int, Generator or None
         Seed of the stochastic search.
     space : SearchSpace, optional
-        Defaults to the paper's experiment (``SearchSpace.from_ranges()``).
+        Defaults to the paper's experiment with the tilt measured from the table that faces
+        the rig (``SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)``).
     min_score : float, optional
         Score in [0, 1] from which the garment counts as found. Default: the calibrated
         threshold (:func:`~photomodel.locate.load_threshold`) for ``soft``,
@@ -218,7 +219,7 @@ def locate(
     rig.cam1.check_image(right_bgr, "right image")
     rig.cam2.check_image(left_bgr, "left image")
     t0 = time.perf_counter()
-    space = space or SearchSpace.from_ranges()
+    space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
     gen = np.random.default_rng(rng)
     if fitness == "soft":
         return _locate_soft(model, rig, right_bgr, left_bgr, space, gen, min_score, t0)
@@ -266,7 +267,8 @@ def locate_in_features(
     features : StereoFeatures
         Both images' feature pyramids and the rig.
     space : SearchSpace, optional
-        Defaults to the paper's experiment.
+        Defaults to the paper's experiment, the tilt measured from the table that faces the
+        rig (as in :func:`locate`).
     rng : int, Generator or None
         Seed of the stochastic search.
     min_score : float, optional
@@ -308,7 +310,7 @@ def locate_in_features(
     if min_score is None:
         min_score = load_threshold().min_score
     gen = np.random.default_rng(rng)
-    space = space or SearchSpace.from_ranges()
+    space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     best: PyramidResult | None = None
     searches = evaluations = 0
     config = PyramidConfig()
