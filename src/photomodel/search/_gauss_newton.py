@@ -111,17 +111,22 @@ class GaussNewtonConfig:
         analytic Jacobian a step costs about 0.5 ms there, so 40 (20 before) let a slow walk
         along a ridge (tilted and wrinkled garments, wood) finish: on 72 scenes (tilt,
         wrinkles, wood, overlap, gripper, blur) the same successes, mean time 88 -> 82 ms.
+        The slowest walks then were tilted garments held at the search box's tilt bound
+        (measured from camera 1 then, not from the table; see ``SearchSpace.from_ranges``):
+        the tilt's step was clipped every iteration and the other genes crept.
     converged_steps : float
         Stop after an accepted step no larger than this many difference steps in any gene.
     min_gain : float
         Also stop after two accepted steps in a row that each raised the fitness by less
-        than this (0: never). On a flat ridge the Welsch metric overstates the fitness's
-        curvature and the steps creep: a tilted striped shirt's level-0 refinement ran its
-        40 steps moving the tilt 0.05-0.2 deg each for 1e-5 a step (doubling the step
-        while the fitness rose did not end it sooner). 1e-5 against none, on 36 tilt, wood
-        and paper scenes: mean time 70 -> 65 ms a pair, the same successes and median
-        errors; the grey sock No.6 in 300 paper trials: the same means and std to 0.004 mm
-        and 0.001 deg; 48 wrinkled, occluded and dim scenes unchanged.
+        than this (0: never). A tilted striped shirt's level-0 refinement ran its 40 steps
+        for 1e-5 a step: its tilt lay beyond the search box's bound, then measured from
+        camera 1 (``SearchSpace.from_ranges``' ``R_cam1_plane`` since), each step's tilt was
+        clipped and the other genes crept. 1e-5 against none, on 36 tilt, wood and paper
+        scenes: mean time 70 -> 65 ms a pair, the same successes and median errors; the grey
+        sock No.6 in 300 paper trials: the same means and std to 0.004 mm and 0.001 deg; 48
+        wrinkled, occluded and dim scenes unchanged. With the tilt bound from the table, on
+        72 tilt, wood and paper scenes: mean 109 -> 100 ms, median 66 -> 64 ms, the same
+        successes, poses within 0.07 mm.
     damping0 : float
         Start value of ``lambda``.
     max_damping : float
