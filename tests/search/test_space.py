@@ -18,7 +18,8 @@ def _on_plane(R_plane: np.ndarray, tilt_deg: np.ndarray, axis_rad: np.ndarray,
               theta_deg: np.ndarray) -> Rotation:
     """Rotations ``R_plane @ R_tilt @ Rz(theta)``, the tilt about an axis of the plane."""
     rotvec = np.column_stack([np.cos(axis_rad), np.sin(axis_rad), np.zeros_like(axis_rad)])
-    return (Rotation.from_matrix(R_plane) * Rotation.from_rotvec(rotvec * np.radians(tilt_deg)[:, None])
+    tilt = Rotation.from_rotvec(rotvec * np.radians(tilt_deg)[:, None])
+    return (Rotation.from_matrix(R_plane) * tilt
             * Rotation.from_euler("z", theta_deg[:, None], degrees=True))
 
 

@@ -35,6 +35,7 @@ from photomodel.search import (
     GAConfig,
     GlobalThenLocal,
     Optimizer,
+    PyramidConfig,
     RefineConfig,
     SearchResult,
     SearchSpace,
@@ -255,6 +256,7 @@ def locate_in_features(
     retries: int = 1,
     scan: ScanResult | None = None,
     second_look: bool = False,
+    pyramid: PyramidConfig | None = None,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -297,12 +299,15 @@ def locate_in_features(
     second_look : bool
         The caller searched once already (``identify``'s second look): every search runs the
         retry configuration.
+    pyramid : PyramidConfig, optional
+        Settings of the coarse-to-fine search (default ``PyramidConfig()``); a retry runs
+        their :meth:`~photomodel.search.PyramidConfig.for_retry`.
 
     Returns
     -------
     LocateResult
     """
-    from photomodel.search import PyramidConfig, PyramidResult, pyramid_search
+    from photomodel.search import PyramidResult, pyramid_search
 
     t0 = time.perf_counter() if t0 is None else t0
     if retries < 0:
@@ -313,7 +318,7 @@ def locate_in_features(
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     best: PyramidResult | None = None
     searches = evaluations = 0
-    config = PyramidConfig()
+    config = pyramid or PyramidConfig()
     if scan is None:
         scan = scan_flat_poses(model, features, space.lower, space.upper)
     relit = not scan.trusted

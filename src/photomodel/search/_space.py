@@ -116,7 +116,8 @@ def _tilt_box(R_cam1_plane: bytes, theta_deg: float, tilt_deg: float
     tilt = np.column_stack([np.full(len(axis), np.cos(half)), np.sin(half) * np.cos(axis),
                             np.sin(half) * np.sin(axis), np.zeros(len(axis))])
     spin = np.column_stack([np.cos(theta / 2), np.zeros((len(theta), 2)), np.sin(theta / 2)])
-    q = _hamilton(Rotation.from_matrix(np.frombuffer(R_cam1_plane).reshape(3, 3)).as_quat(scalar_first=True)[None, None],
+    plane = Rotation.from_matrix(np.frombuffer(R_cam1_plane).reshape(3, 3))
+    q = _hamilton(plane.as_quat(scalar_first=True)[None, None],
                   _hamilton(tilt[:, None], spin[None]))
     eps = np.where(q[..., :1] < 0, -q[..., 1:3], q[..., 1:3]).reshape(-1, 2)
     return eps.min(axis=0) - 1e-3, eps.max(axis=0) + 1e-3
