@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
-from photomodel.fitness import StereoFeatures
+from photomodel.fitness import SoftFitness, StereoFeatures
 from photomodel.geometry import strained_matrices
 from photomodel.locate import LocateResult, locate, locate_in_features
 from photomodel.search import PyramidConfig
@@ -92,6 +92,14 @@ def test_a_garment_wrinkled_on_one_side_is_refined_again_from_flat() -> None:
     assert result.found
     assert "flat restart" in result.search.stop_reason
     assert _rotation_error_deg(result.T_cam1_model, T_true) < 2.0
+    # the result carries the restart's strain: its map scores the reported fitness
+    config = ExperimentConfig(garments=("No.7",), conditions=("wrinkles",), trials=1, seed=0)
+    model, rig, right, left, _, _ = trial_inputs(
+        config, Trial("wrinkles_No.7_0000", "No.7", "wrinkles", 0))
+    level0 = SoftFitness(model, StereoFeatures(rig, right, left), 0,
+                         optics_blur_mm=result.search.optics_blur_mm)
+    assert level0.evaluate_transforms(result.A_cam1_model[None])[0] == pytest.approx(
+        result.fitness, abs=1e-9)
     off, _ = _located("wrinkles", "No.7", 0, PyramidConfig(flat_restart_deg=0.0))
     assert _rotation_error_deg(off.T_cam1_model, T_true) > 5.0
     assert result.fitness > off.fitness

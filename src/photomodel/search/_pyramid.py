@@ -363,6 +363,7 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
         evaluations += used
         if flat is not None:
             stages.append(flat)
+            x, strain = flat.x, flat.strain
     last = stages[-1]
     fitness = last.fitness
     if c.finest_level > 0:    # the score is level 0's, as the threshold's
@@ -378,11 +379,11 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
 def _flat_restart(objective: Fitness, last: SearchResult, space: SearchSpace,
                   config: PyramidConfig, facing: NDArray[np.float64]
                   ) -> tuple[SearchResult | None, int]:
-    """Level 0 again from ``last``'s pose laid flat on the plane ``facing``, when it lies
-    more than ``config.flat_restart_deg`` tilted from that plane and its strain shrinks the
-    model (``config.flat_restart_shrink``): Gauss-Newton with the tilt held, then free. The
-    result when its fitness beats ``last``'s (its evaluations all that was spent), else None
-    and the evaluations spent.
+    """The finest level (fitness ``objective``) again from ``last``'s pose laid flat on the
+    plane ``facing``, when it lies more than ``config.flat_restart_deg`` tilted from that
+    plane and its strain shrinks the model (``config.flat_restart_shrink``): Gauss-Newton
+    with the tilt held, then free. The result when its fitness beats ``last``'s (its
+    evaluations all that was spent), else None and the evaluations spent.
 
     Folds across one side of a garment gather its cloth there, and a uniform strain cannot
     follow them; tilting the model foreshortens that side, and the refinement can end on
@@ -395,10 +396,11 @@ def _flat_restart(objective: Fitness, last: SearchResult, space: SearchSpace,
             or np.mean(last.strain[:2]) > -config.flat_restart_shrink):
         return None, 0
     start = space.clip(facing_pose_vectors(flat_pose_vectors(last.x, facing), facing)[0])
-    held = gauss_newton_refine(objective, start, space, 0, config.gauss_newton,
+    level = config.finest_level
+    held = gauss_newton_refine(objective, start, space, level, config.gauss_newton,
                                free=np.array([True, True, True, False, False, True]),
                                strain=last.strain)
-    free = gauss_newton_refine(objective, held.x, space, 0, config.gauss_newton,
+    free = gauss_newton_refine(objective, held.x, space, level, config.gauss_newton,
                                strain=held.strain)
     used = held.evaluations + free.evaluations
     if not free.fitness > last.fitness:
