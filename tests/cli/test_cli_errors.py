@@ -362,6 +362,20 @@ def test_locate_overlay_with_unknown_suffix(capsys, data: CliData, tmp_path: Pat
     _assert_clean_error(code, out, err, overlay, out_dir)
 
 
+@pytest.mark.parametrize(("option", "value"), [("--tilt-deg", "120"), ("--theta-deg", "-5")])
+def test_locate_search_space_out_of_range(capsys, data: CliData, tmp_path: Path, option: str,
+                                          value: str) -> None:
+    """The tilt is measured from the table of the stereo file's rig, so the ranges are checked
+    once it is read: still one line, nothing written."""
+    out_dir = tmp_path / "out"
+    code, out, err = _run(capsys, [*_locate_argv(data), option, value, "--json",
+                                   "--overlay", out_dir / "overlay.png"])
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert err.startswith("photomodel: error: search space: angles: expected"), err
+    assert not out_dir.exists()
+
+
 # --- locate: the happy path ----------------------------------------------------------------
 
 
