@@ -80,7 +80,7 @@ class ScanConfig:
         beyond the box (925 mm for 500-900 mm); it sets its group's kernel scale and is not
         scanned, since every peak it gave lay outside the box and was dropped (1/9 of the
         scan). Tried: 0.12 with 2 depths a kernel set (6 depths): 0.92x the median time on
-        216 scenes with the same successes, but in the 12 x 1000 study one striped-shirt
+        216 scenes with the same successes, but in the 12 x 1000 study one polka-dot skirt
         trial of 12000 ended 13.6 mm off (found, fitness 0.70 against 0.95 at the truth);
         with 3 depths a set the grey sock under the gripper lost its scan peak.
     depths_per_kernel : int
