@@ -9,6 +9,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from photomodel.geometry import facing_pose_vectors
+
 __all__ = ["GENE_NAMES", "SearchSpace"]
 
 GENE_NAMES = ("x_mm", "y_mm", "z_mm", "eps1", "eps2", "eps3")
@@ -108,26 +110,15 @@ def _tilt_box(R_cam1_plane: bytes, theta_deg: float, tilt_deg: float
     Rz(theta)`` (the plane's 3 x 3 float64 bytes): tilts up to ``tilt_deg`` about any axis of
     the plane, ``|theta| <= theta_deg``, on a grid of 1 deg in theta and 5 deg in the tilt's
     axis (the extremes lie on the largest tilt; eps varies by under 1e-3 between grid points),
-    widened by 1e-3. Cached: a rig's plane is the same for every stereo pair."""
+    widened by 1e-3. Each tilted plane's poses are :func:`facing_pose_vectors` of the angles.
+    Cached: a rig's plane is the same for every stereo pair."""
     theta = np.deg2rad(np.linspace(-theta_deg, theta_deg, 2 * int(np.ceil(theta_deg)) + 1))
+    flat = np.zeros((len(theta), 6))
+    flat[:, 5] = np.sin(theta / 2)
     axis = np.deg2rad(np.arange(0.0, 360.0, 5.0))
-    half = np.deg2rad(tilt_deg) / 2
-    # (w, x, y, z) of R_tilt (A axes) and Rz (T angles), then of R_tilt @ Rz (A, T)
-    tilt = np.column_stack([np.full(len(axis), np.cos(half)), np.sin(half) * np.cos(axis),
-                            np.sin(half) * np.sin(axis), np.zeros(len(axis))])
-    spin = np.column_stack([np.cos(theta / 2), np.zeros((len(theta), 2)), np.sin(theta / 2)])
-    plane = Rotation.from_matrix(np.frombuffer(R_cam1_plane).reshape(3, 3))
-    q = _hamilton(plane.as_quat(scalar_first=True)[None, None],
-                  _hamilton(tilt[:, None], spin[None]))
-    eps = np.where(q[..., :1] < 0, -q[..., 1:3], q[..., 1:3]).reshape(-1, 2)
+    rotvec = np.deg2rad(tilt_deg) * np.column_stack([np.cos(axis), np.sin(axis),
+                                                     np.zeros(len(axis))])
+    tilted = (Rotation.from_matrix(np.frombuffer(R_cam1_plane).reshape(3, 3))
+              * Rotation.from_rotvec(rotvec)).as_quat(scalar_first=True)
+    eps = np.concatenate([facing_pose_vectors(flat, q_plane)[:, 3:5] for q_plane in tilted])
     return eps.min(axis=0) - 1e-3, eps.max(axis=0) + 1e-3
-
-
-def _hamilton(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Quaternion products (..., 4) ``p q`` of (w, x, y, z) arrays (broadcast)."""
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack([pw * qw - px * qx - py * qy - pz * qz,
-                     pw * qx + px * qw + py * qz - pz * qy,
-                     pw * qy - px * qz + py * qw + pz * qx,
-                     pw * qz + px * qy - py * qx + pz * qw], axis=-1)
