@@ -198,7 +198,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             e[c] = sample[c] - f_in[j, c] - o[c]
             we[c] = W[c] * e[c]
             d2 += e[c] * we[c]
-        a = np.exp(-0.5 * d2) / n_in
+        plain = np.exp(-0.5 * d2)     # the agreement of the plain difference
+        a = plain / n_in
         for c in range(3):
             for m in range(3):
                 hess_o[c, m] += a * we[c] * we[m]
@@ -229,10 +230,10 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                 for c in range(3):
                     slope_o[m] += (a / n_in * scale[c] * r[c]
                                    * ((1.0 if c == m else 0.0) - slope[c, m]))
-        else:
+        else:     # the plain difference: its agreement is the offsets' one above
             for c in range(3):
-                r[c] = (sample[c] - f_in[j, c] - o[c]) * scale[c]
-            a = _agreement(r)
+                r[c] = e[c] * scale[c]
+            a = plain
             for c in range(3):
                 slope_o[c] += a / n_in * scale[c] * r[c]
         _accumulate(r, coef, basis, rank, scale, a * weights[j], weights[j] > 0.0, pair, lead,
