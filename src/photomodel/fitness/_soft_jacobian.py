@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from photomodel.fitness._kernels import _project_jacobian
+from photomodel.fitness._kernels import _project_jacobian, exp_neg
 from photomodel.fitness._soft_kernels import _LOGS, _OPPONENT, _bilinear_cell, _light_gain
 
 
@@ -93,7 +93,7 @@ def _mixture_slope(model_lin, gain, table, t, out, slope):  # pragma: no cover -
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _agreement(r):  # pragma: no cover - compiled
     """A sample's agreement ``exp(-|r|^2 / 2)`` from its scaled residual ``r`` (3,)."""
-    return np.exp(-0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+    return exp_neg(0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -198,7 +198,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             e[c] = sample[c] - f_in[j, c] - o[c]
             we[c] = W[c] * e[c]
             d2 += e[c] * we[c]
-        plain = np.exp(-0.5 * d2)     # the agreement of the plain difference
+        plain = exp_neg(0.5 * d2)     # the agreement of the plain difference
         a = plain / n_in
         for c in range(3):
             for m in range(3):

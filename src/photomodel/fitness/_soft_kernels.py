@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from photomodel.fitness._kernels import _project, camera2_pose
+from photomodel.fitness._kernels import _project, camera2_pose, exp_neg
 
 _OFFSET_ITERATIONS = 3
 """Mean-shift steps of the light offsets from each start."""
@@ -71,7 +71,7 @@ def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compi
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _agreement(sample, colour, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
-    return np.exp(-0.5 * _distance2(sample[0] - colour[0], sample[1] - colour[1],
+    return exp_neg(0.5 * _distance2(sample[0] - colour[0], sample[1] - colour[1],
                                     sample[2] - colour[2], o, inv_var_l, inv_var_c))
 
 
@@ -82,7 +82,7 @@ def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cov
     for k in range(palette.shape[0]):
         best = min(best, _distance2(sample[0] - palette[k, 0], sample[1] - palette[k, 1],
                                     sample[2] - palette[k, 2], o, inv_var_l, inv_var_c))
-    return np.exp(-0.5 * best)
+    return exp_neg(0.5 * best)
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -116,9 +116,9 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     a band point ``table_out[j] >= 0`` is expected to show its model colour mixed with that
     fraction of the table colour seen at the band point (the blurred edge), once the offsets
     are known; ``lin_in`` (N_in, 3) holds the model colours linear (exp of the log channels
-    B', G', R'). ``buf`` and ``diff`` (N_in, 3), ``valid`` (N_in,), ``band`` (N_out, 3) and
-    ``band_ok`` (N_out,) are work space: the samples, their differences to the model's
-    colours and whether they fell inside the image.
+    B', G', R'). ``buf`` (N_in, 3), ``diff`` (3, N_in), ``valid`` (N_in,), ``band`` (N_out,
+    3) and ``band_ok`` (N_out,) are work space: the samples, their differences to the
+    model's colours by channel and whether they fell inside the image (1.0 or 0.0).
     """
     use_palette = palette.shape[0] > 0
     n_in = p_in.shape[0]
@@ -131,13 +131,16 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
             band[j, c] = sample[c]
     for j in range(n_in):
         ok = _sample_point(R, t, K, D, p_in[j, 0], p_in[j, 1], img, sample)
-        valid[j] = ok
+        valid[j] = 1.0 if ok else 0.0
         if ok:
             n_valid += 1
             for c in range(3):
                 buf[j, c] = sample[c]
-                diff[j, c] = sample[c] - f_in[j, c]
-                o[c] += diff[j, c]
+                diff[c, j] = sample[c] - f_in[j, c]
+                o[c] += diff[c, j]
+        else:     # zero differences: the passes below weigh them by valid = 0
+            for c in range(3):
+                diff[c, j] = 0.0
     if n_valid == 0:
         for k in range(6):
             out[k] = 0.0
@@ -147,44 +150,53 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     # The offsets maximise mean agreement - chroma penalty (a mode, not the mean): occluders
     # and shadows disagree with the model and must not drag them. Fixed-point (mean-shift)
     # ascent from the mean and from no offset; the better end point is kept. The inner
-    # points' agreement sum at the kept offsets is S_in (without a palette).
+    # points' agreement sum at the kept offsets is S_in (without a palette). The passes run
+    # over the differences laid out by channel, without branches: they vectorise.
     ridge = 2.0 * wb_weight * n_in / inv_var_c
+    dl = diff[0]    # one array per channel: unit strides the compiler can see
+    da = diff[1]
+    db = diff[2]
     best_j = -1e300
     best_sum = 0.0
     best_o = np.zeros(3)
-    trial = np.empty(3)
     for start in range(2):
-        for c in range(3):
-            trial[c] = o[c] if start == 0 else 0.0
+        t0 = o[0] if start == 0 else 0.0
+        t1 = o[1] if start == 0 else 0.0
+        t2 = o[2] if start == 0 else 0.0
         for _ in range(_OFFSET_ITERATIONS):
             sw = 0.0
             s0 = 0.0
             s1 = 0.0
             s2 = 0.0
             for j in range(n_in):
-                if valid[j]:
-                    a = np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], trial,
-                                                 inv_var_l, inv_var_c))
-                    sw += a
-                    s0 += a * diff[j, 0]
-                    s1 += a * diff[j, 1]
-                    s2 += a * diff[j, 2]
+                el = dl[j] - t0
+                ea = da[j] - t1
+                eb = db[j] - t2
+                a = valid[j] * exp_neg(0.5 * (el * el * inv_var_l
+                                              + (ea * ea + eb * eb) * inv_var_c))
+                sw += a
+                s0 += a * dl[j]
+                s1 += a * da[j]
+                s2 += a * db[j]
             if sw < 1e-9:
                 break
-            trial[0] = s0 / sw
-            trial[1] = s1 / (sw + ridge)
-            trial[2] = s2 / (sw + ridge)
+            t0 = s0 / sw
+            t1 = s1 / (sw + ridge)
+            t2 = s2 / (sw + ridge)
         total = 0.0
         for j in range(n_in):
-            if valid[j]:
-                total += np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], trial,
-                                                  inv_var_l, inv_var_c))
-        j_val = total / n_in - wb_weight * (trial[1] * trial[1] + trial[2] * trial[2])
+            el = dl[j] - t0
+            ea = da[j] - t1
+            eb = db[j] - t2
+            total += valid[j] * exp_neg(0.5 * (el * el * inv_var_l
+                                               + (ea * ea + eb * eb) * inv_var_c))
+        j_val = total / n_in - wb_weight * (t1 * t1 + t2 * t2)
         if j_val > best_j:
             best_j = j_val
             best_sum = total
-            for c in range(3):
-                best_o[c] = trial[c]
+            best_o[0] = t0
+            best_o[1] = t1
+            best_o[2] = t2
     for c in range(3):
         o[c] = best_o[c]
     s_in = best_sum
@@ -194,19 +206,19 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
         _light_gain(o, gain)
         for j in range(n_in):
             k = table_out[j]
-            if valid[j] and k >= 0 and band_ok[k]:
+            if valid[j] > 0.0 and k >= 0 and band_ok[k]:
                 _edge_mixture(lin_in[j], gain, band[k], mix_t, expected)
-                s_in -= np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+                s_in -= exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
                                                  inv_var_l, inv_var_c))
                 for c in range(3):   # so that diff - o = sample - expected
-                    diff[j, c] = buf[j, c] - expected[c] + o[c]
-                s_in += np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+                    diff[c, j] = buf[j, c] - expected[c] + o[c]
+                s_in += exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
                                                  inv_var_l, inv_var_c))
     if use_palette:
         s_in = 0.0
         for j in range(n_in):
-            if valid[j]:
-                a = np.exp(-0.5 * _distance2(diff[j, 0], diff[j, 1], diff[j, 2], o,
+            if valid[j] > 0.0:
+                a = exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
                                              inv_var_l, inv_var_c))
                 s_in += max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
                                                                 inv_var_c))
@@ -256,8 +268,8 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
     lanes = min(lanes, pairs)
     for lane in prange(lanes):     # work space once per thread
         buf = np.empty((n_in, 3))
-        diff = np.empty((n_in, 3))
-        valid = np.empty(n_in, dtype=np.bool_)
+        diff = np.empty((3, n_in))
+        valid = np.empty(n_in)
         band = np.empty((p_out.shape[0], 3))
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
         for q in range(lane, pairs, lanes):
