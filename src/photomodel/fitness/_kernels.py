@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-
 _EXP_NEG_MAX = 60.0
 """Largest argument :func:`exp_neg` evaluates (exp(-60) = 9e-27: no agreement counts)."""
 
