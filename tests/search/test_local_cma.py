@@ -79,3 +79,20 @@ def test_the_blur_changes_only_when_a_candidate_fits_clearly_better() -> None:
     assert blur == 0.5 and fit(x[None])[0] == 0.90 and f0 == 0.90
     none = PyramidConfig(optics_blur_candidates_mm=())
     assert _sharpest_fit(_fitness_at(sharp), 0, x, none, 2.8)[0] == 2.8
+
+
+def test_the_blur_climb_finds_the_peak_with_fewer_evaluations() -> None:
+    config = PyramidConfig(optics_blur_candidates_mm=(0.5, 0.7, 1.0, 1.4, 2.0, 2.8))
+    x = TARGET
+    peaked = {0.5: 0.30, 0.7: 0.36, 1.0: 0.45, 1.4: 0.62, 2.0: 0.55, 2.8: 0.40}
+    every = _sharpest_fit(_fitness_at(peaked), 0, x, config, 0.7)
+    climbed = _sharpest_fit(_fitness_at(peaked), 0, x, config, 0.7, climb=True)
+    assert every[0] == climbed[0] == 1.4 and climbed[2] == 0.62
+    assert every[3] == 6 and climbed[3] == 5    # 0.7, 0.5 (lower), 1.0, 1.4, 2.0
+    # Staying put costs the two neighbours, one at the grid's end.
+    assert _sharpest_fit(_fitness_at(peaked), 0, x, config, 1.4, climb=True)[::3] == (1.4, 3)
+    falling = {b: 1.0 - b for b in peaked}
+    assert _sharpest_fit(_fitness_at(falling), 0, x, config, 0.5, climb=True)[::3] == (0.5, 2)
+    # A current blur off the grid: every candidate, as without the climb.
+    assert _sharpest_fit(_fitness_at({**peaked, 0.6: 0.3}), 0, x, config, 0.6,
+                         climb=True)[::3] == (1.4, 7)
