@@ -39,7 +39,7 @@ from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
 from photomodel.camera import PinholeCamera
-from photomodel.image._features import log_opponent
+from photomodel.image._features import linear_intensity, log_opponent
 from photomodel.model import PhotoModel
 
 __all__ = ["ModelSamples", "SampleSpacing", "model_samples"]
@@ -108,7 +108,8 @@ class ModelSamples:
     ``f_out`` (M, 3): the band and the garment colour next to each band point;
     ``palette`` (K, 3): the garment's main colours (k-means of ``f_in``, K <= 6, computed
     on first use); ``table_out`` (N,): for each inner-ring point the band point of the
-    outermost ring beside it (what the table looks like there), -1 for interior points.
+    outermost ring beside it (what the table looks like there), -1 for interior points;
+    ``lin_in`` (N, 3): ``f_in`` as linear intensities (computed on first use).
     """
 
     p_in: NDArray[np.float64]
@@ -120,6 +121,12 @@ class ModelSamples:
     @cached_property
     def palette(self) -> NDArray[np.float64]:
         return _palette(self.f_in)
+
+    @cached_property
+    def lin_in(self) -> NDArray[np.float64]:
+        """The inner colours as linear intensities (N, 3) (:func:`linear_intensity`), for
+        the edge mixture; computed on first use and kept with the (cached) samples."""
+        return linear_intensity(self.f_in)
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from photomodel.camera import StereoRig
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.geometry import pose_vectors_to_matrices
-from photomodel.image._features import feature_pyramid, linear_intensity, log_opponent
+from photomodel.image._features import feature_pyramid, log_opponent
 from photomodel.model import PhotoModel
 
 __all__ = ["SoftFitness", "SoftMatch", "StereoFeatures"]
@@ -189,7 +189,8 @@ class SoftFitness:
             sigma = float(np.hypot(spacing.optics_blur_mm, m.edge_blur_mm))
             self.edge_mix_fraction = 0.5 * math.erfc(spacing.ring_mm / sigma / math.sqrt(2.0))
             self._table_out = self.samples.table_out
-        self._lin_in = linear_intensity(self.samples.f_in)
+        self._lin_in = self.samples.lin_in
+        self._half_weights = self.residual_weights() / 2.0    # each camera's half
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
 
     def score(self, fitness: float) -> float:
@@ -293,14 +294,14 @@ class SoftFitness:
                            self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
                            math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
                            self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
-                           self.residual_weights() / 2.0, wb_weight, gradient, metric, hess_o,
+                           self._half_weights, wb_weight, gradient, metric, hess_o,
                            cross_o, slope_o)
         total = gradient[0] + gradient[1]
         if with_offsets:
-            for c in range(2):
-                if np.linalg.cond(hess_o[c]) < 1e12:
-                    moved = -np.linalg.solve(hess_o[c], cross_o[c])   # d offsets / d genes
-                    total = total + 0.5 * slope_o[c] @ moved
+            usable = np.linalg.cond(hess_o) < 1e12     # both cameras in one call
+            if usable.any():
+                moved = -np.linalg.solve(hess_o[usable], cross_o[usable])  # d offsets / d genes
+                total = total + 0.5 * np.einsum("ci,cig->g", slope_o[usable], moved)
         return total, metric[0] + metric[1]
 
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
