@@ -70,6 +70,16 @@ def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compi
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _offset_agreement(dl, da, db, ol, oa, ob, inv_var_l, inv_var_c):  # pragma: no cover
+    """Agreement of a feature difference (dl, da, db) after the offsets (ol, oa, ob), given
+    as scalars: a loop over samples of it vectorises."""
+    el = dl - ol
+    ea = da - oa
+    eb = db - ob
+    return exp_neg(0.5 * (el * el * inv_var_l + (ea * ea + eb * eb) * inv_var_c))
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _agreement(sample, colour, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
     return exp_neg(0.5 * _distance2(sample[0] - colour[0], sample[1] - colour[1],
                                     sample[2] - colour[2], o, inv_var_l, inv_var_c))
@@ -169,11 +179,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
             s1 = 0.0
             s2 = 0.0
             for j in range(n_in):
-                el = dl[j] - t0
-                ea = da[j] - t1
-                eb = db[j] - t2
-                a = valid[j] * exp_neg(0.5 * (el * el * inv_var_l
-                                              + (ea * ea + eb * eb) * inv_var_c))
+                a = valid[j] * _offset_agreement(dl[j], da[j], db[j], t0, t1, t2, inv_var_l,
+                                                 inv_var_c)
                 sw += a
                 s0 += a * dl[j]
                 s1 += a * da[j]
@@ -185,11 +192,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
             t2 = s2 / (sw + ridge)
         total = 0.0
         for j in range(n_in):
-            el = dl[j] - t0
-            ea = da[j] - t1
-            eb = db[j] - t2
-            total += valid[j] * exp_neg(0.5 * (el * el * inv_var_l
-                                               + (ea * ea + eb * eb) * inv_var_c))
+            total += valid[j] * _offset_agreement(dl[j], da[j], db[j], t0, t1, t2, inv_var_l,
+                                                  inv_var_c)
         j_val = total / n_in - wb_weight * (t1 * t1 + t2 * t2)
         if j_val > best_j:
             best_j = j_val

@@ -61,16 +61,13 @@ def _log_opponent_kernel(img, lut, out):  # pragma: no cover - compiled
     """``out`` (H, W, 3) float32 = the rows of ``_OPPONENT`` applied to ``lut`` (256,) of
     each channel of ``img`` (H, W, 3) uint8 (B, G, R): one pass over the pixels, rows side
     by side (cv2.LUT then cv2.transform took 3.5 ms for a 640 x 480 image, this 0.25 ms)."""
-    third = np.float32(1.0 / 3.0)
-    half = np.float32(0.5)
     for r in prange(img.shape[0]):
         for c in range(img.shape[1]):
             lb = lut[img[r, c, 0]]
             lg = lut[img[r, c, 1]]
             lr = lut[img[r, c, 2]]
-            out[r, c, 0] = lb * third + lg * third + lr * third
-            out[r, c, 1] = lr - lg
-            out[r, c, 2] = lg * half + lr * half - lb
+            for k in range(3):
+                out[r, c, k] = _OPPONENT[k, 0] * lb + _OPPONENT[k, 1] * lg + _OPPONENT[k, 2] * lr
 
 
 def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:

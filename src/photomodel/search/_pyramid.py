@@ -477,8 +477,9 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
     """
     candidates = tuple(config.optics_blur_candidates_mm)
     if climb and blur_mm in candidates:
+        grid = sorted(candidates)
         tried = _climb(lambda b: float(_strained(fitness_at(level, 0.0, b), strain)(x[None])[0]),
-                       sorted(candidates), sorted(candidates).index(blur_mm))
+                       grid, grid.index(blur_mm))
     else:
         tried = {b: float(_strained(fitness_at(level, 0.0, b), strain)(x[None])[0])
                  for b in dict.fromkeys((blur_mm, *candidates))}
