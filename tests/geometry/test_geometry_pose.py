@@ -265,6 +265,26 @@ def test_facing_pose_vectors_lay_the_garment_on_the_plane(q: np.ndarray, angle: 
                                atol=1e-12)
 
 
+def test_facing_pose_vectors_of_a_population_keep_the_scalar_part_non_negative() -> None:
+    """A population at once, row by row as alone, the plane given as a matrix or as its
+    quaternion: a plane turned 170 deg about z makes some angles' products' scalar part
+    negative, and those rows flip sign (the same rotation, the one ``eps``)."""
+    rng = np.random.default_rng(3)
+    R_face = _rot_z(np.deg2rad(170.0)) @ _rot_x(0.1)
+    angles = rng.uniform(-3.0, 3.0, 40)
+    flat = np.column_stack([rng.uniform(-100, 100, (40, 3)), np.zeros((40, 2)),
+                            np.sin(angles / 2)])
+    poses = facing_pose_vectors(flat, R_face)
+    np.testing.assert_array_equal(poses, facing_pose_vectors(flat, quat_wxyz_from_matrix(R_face)))
+    for row, pose, angle in zip(flat, poses, angles, strict=True):
+        np.testing.assert_array_equal(facing_pose_vectors(row, R_face)[0], pose)
+        np.testing.assert_allclose(rotation_from_eps(pose[3:]), R_face @ _rot_z(angle),
+                                   atol=1e-12)
+    q = quat_wxyz_from_matrix(R_face)
+    flipped = q[0] * np.cos(angles / 2) - q[3] * np.sin(angles / 2) < 0
+    assert flipped.any() and not flipped.all()
+
+
 def test_facing_pose_vectors_of_the_identity_are_the_flat_vectors() -> None:
     flat = np.array([[1.0, 2.0, 600.0, 0.0, 0.0, 0.3], [0.0, 0.0, 700.0, 0.0, 0.0, -0.4]])
     np.testing.assert_allclose(facing_pose_vectors(flat, np.eye(3)), flat, atol=1e-15)
