@@ -285,6 +285,12 @@ def test_facing_pose_vectors_of_a_population_keep_the_scalar_part_non_negative()
     assert flipped.any() and not flipped.all()
 
 
+@pytest.mark.parametrize("shape", [(5,), (3, 7), (2, 3)])
+def test_facing_pose_vectors_reject_wrong_shape(shape: tuple[int, ...]) -> None:
+    with pytest.raises(ValueError, match="flat"):
+        facing_pose_vectors(np.zeros(shape), np.eye(3))
+
+
 def test_facing_pose_vectors_of_the_identity_are_the_flat_vectors() -> None:
     flat = np.array([[1.0, 2.0, 600.0, 0.0, 0.0, 0.3], [0.0, 0.0, 700.0, 0.0, 0.0, -0.4]])
     np.testing.assert_allclose(facing_pose_vectors(flat, np.eye(3)), flat, atol=1e-15)

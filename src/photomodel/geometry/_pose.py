@@ -115,10 +115,11 @@ def facing_pose_vectors(flat: ArrayLike, facing: ArrayLike) -> NDArray[np.float6
         quaternion product): it runs on whole GA populations.
     """
     f = np.atleast_2d(np.asarray(flat, dtype=np.float64))
+    if f.ndim != 2 or f.shape[1] != 6:    # the kernel does not check its indices
+        raise ValueError(f"flat: expected shape (N, 6), got {np.shape(flat)}")
     q_face = np.asarray(facing, dtype=np.float64)
     w0, a, b, c = quat_wxyz_from_matrix(q_face) if q_face.shape == (3, 3) else q_face
-    return _facing(np.ascontiguousarray(f.reshape(-1, 6)), float(w0), float(a), float(b),
-                   float(c))
+    return _facing(np.ascontiguousarray(f), float(w0), float(a), float(b), float(c))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -106,11 +106,9 @@ class LocalRefine:
     def ask(self) -> NDArray[np.float64]:
         """``population`` poses drawn around the best (ray coordinates, clipped to the box)."""
         assert self._tracker.best_x is not None
-        r = _to_ray(self._tracker.best_x) + (
-            self.rng.standard_normal((self.config.population, 6)) * self.step)
-        r[:, 0] *= r[:, 2]     # _from_ray in place: r is a new array
-        r[:, 1] *= r[:, 2]
-        return np.minimum(np.maximum(r, self.space.lower), self.space.upper)
+        centre = _to_ray(self._tracker.best_x)
+        draws = self.rng.standard_normal((self.config.population, 6)) * self.step
+        return self.space.clip(_from_ray(centre + draws))
 
     def tell(self, x: NDArray[np.float64], fitness: NDArray[np.float64]) -> None:
         """Keep the best if it improves; adapt the steps."""
