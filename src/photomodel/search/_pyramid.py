@@ -475,14 +475,15 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
     one per candidate. A level-0 evaluation costs what 2-3 of level 1 do, and the first choice
     (level 1) has looked at every candidate.
     """
+    def value(b: float) -> float:
+        return float(_strained(fitness_at(level, 0.0, b), strain)(x[None])[0])
+
     candidates = tuple(config.optics_blur_candidates_mm)
     if climb and blur_mm in candidates:
         grid = sorted(candidates)
-        tried = _climb(lambda b: float(_strained(fitness_at(level, 0.0, b), strain)(x[None])[0]),
-                       grid, grid.index(blur_mm))
+        tried = _climb(value, grid, grid.index(blur_mm))
     else:
-        tried = {b: float(_strained(fitness_at(level, 0.0, b), strain)(x[None])[0])
-                 for b in dict.fromkeys((blur_mm, *candidates))}
+        tried = {b: value(b) for b in dict.fromkeys((blur_mm, *candidates))}
     chosen = blur_mm
     if candidates:
         best = max((b for b in candidates if b in tried), key=tried.__getitem__)
