@@ -2,7 +2,7 @@
 the ``soft`` fitness (graded log-opponent colour, sub-pixel, over a feature pyramid)."""
 
 from photomodel.fitness._base import Fitness
-from photomodel.fitness._edges import edge_evidence
+from photomodel.fitness._edges import NO_SLACK, ScoreSlack, ScoreTerms, edge_evidence, score_terms
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
 from photomodel.fitness._light import light_offset_candidates
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
@@ -12,6 +12,7 @@ from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, lev
 
 __all__ = [
     "FITNESS_PRESETS",
+    "NO_SLACK",
     "Fitness",
     "HueMatch",
     "ModelSamples",
@@ -20,6 +21,8 @@ __all__ = [
     "SampleSpacing",
     "ScanConfig",
     "ScanResult",
+    "ScoreSlack",
+    "ScoreTerms",
     "SoftFitness",
     "SoftMatch",
     "StereoFeatures",
@@ -33,4 +36,5 @@ __all__ = [
     "model_samples",
     "relight_scan",
     "scan_flat_poses",
+    "score_terms",
 ]

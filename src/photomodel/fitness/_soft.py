@@ -331,3 +331,54 @@ class SoftFitness:
                               self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
                               numba.get_num_threads(), r, ok)
         return r, ok
+
+    def slack_sums(self, A_cam1_model: NDArray[np.float64], shifts_mm: NDArray[np.float64],
+                   offsets: NDArray[np.float64], cell_in: NDArray[np.intp],
+                   cell_out: NDArray[np.intp], cells: int) -> NDArray[np.float64]:
+        """Per-cell sums of the agreements at one map with every point slid in the model
+        plane, at fixed light offsets, for the score with patch slack
+        (:func:`~photomodel.fitness.score_terms`).
+
+        Parameters
+        ----------
+        A_cam1_model : ndarray (4, 4)
+            Map of model points into camera 1 (a pose, or a strained one).
+        shifts_mm : ndarray (S, 2)
+            Slides of the points along the model's x and y, mm.
+        offsets : ndarray (2, 3)
+            Light offsets of each camera, held.
+        cell_in, cell_out : ndarray (N_in,), (N_out,)
+            Cell of each inner and band point, in ``0 .. cells - 1``.
+        cells : int
+
+        Returns
+        -------
+        ndarray (S, 2, 3, cells)
+            For each slide, camera and cell, the sum of the inner points' agreement (0
+            outside the image), of the band points' (1 outside it) and of the outline pairs'
+            ``a_in (1 - a_out)`` (an inner-ring point and its band point,
+            :attr:`~photomodel.fitness.ModelSamples.table_out`; 0 unless both are inside;
+            a pair counts in its inner point's cell). Own colours only (no palette).
+        """
+        from photomodel.fitness._soft_kernels import soft_slack_sums_kernel
+
+        if self.palette_weight > 0:
+            raise ValueError("slack_sums: defined for the own colours only (palette_weight 0)")
+        A = np.asarray(A_cam1_model, dtype=np.float64).reshape(4, 4)
+        rig, s = self.features.rig, self.samples
+        Ms = np.ascontiguousarray(np.stack([A[:3, :3], rig.R @ A[:3, :3]]))
+        ts = np.ascontiguousarray(np.stack([A[:3, 3], rig.R @ A[:3, 3] + rig.T]))
+        shifts = np.ascontiguousarray(np.asarray(shifts_mm, dtype=np.float64).reshape(-1, 2))
+        out = np.empty((len(shifts), 2, 3, cells))
+        pairs = (s.table_out if s.table_out is not None
+                 else np.full(len(s.p_in), -1, dtype=np.intp))
+        inv_var_l, inv_var_c, _ = self._args
+        soft_slack_sums_kernel(Ms, ts, self.K1, rig.cam1.distortion12, self.K2,
+                               rig.cam2.distortion12, shifts, s.p_in, s.f_in, s.p_out, s.f_out,
+                               self.features.pyramids[0][self.level],
+                               self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
+                               math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
+                               self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
+                               pairs, np.ascontiguousarray(cell_in, dtype=np.intp),
+                               np.ascontiguousarray(cell_out, dtype=np.intp), out)
+        return out

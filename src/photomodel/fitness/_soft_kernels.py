@@ -339,3 +339,101 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
             _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c,
                               table_out, mix_t, lin_in, offsets[q % 2], band, out_r[p, q % 2],
                               out_ok[p, q % 2])
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _plane_affine(R, t, K, D, x, y):  # pragma: no cover - compiled
+    """Pixel (u, v) of the model-plane point ``(x, y)`` and the pixel steps of 1 mm along the
+    model's x and y there (forward differences): (u, v, du_x, dv_x, du_y, dv_y)."""
+    u, v = _project(R[0, 0] * x + R[0, 1] * y + t[0], R[1, 0] * x + R[1, 1] * y + t[1],
+                    R[2, 0] * x + R[2, 1] * y + t[2], K, D)
+    ux, vx = _project(R[0, 0] * (x + 1.0) + R[0, 1] * y + t[0],
+                      R[1, 0] * (x + 1.0) + R[1, 1] * y + t[1],
+                      R[2, 0] * (x + 1.0) + R[2, 1] * y + t[2], K, D)
+    uy, vy = _project(R[0, 0] * x + R[0, 1] * (y + 1.0) + t[0],
+                      R[1, 0] * x + R[1, 1] * (y + 1.0) + t[1],
+                      R[2, 0] * x + R[2, 1] * (y + 1.0) + t[2], K, D)
+    return u, v, ux - u, vx - v, uy - u, vy - v
+
+
+@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_out, img1,
+                           img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, pair_out,
+                           cell_in, cell_out, out):  # pragma: no cover - compiled
+    """Fill ``out`` (S, 2, 3, C) with each (slide, camera, cell)'s sums of the inner points'
+    agreement (inside the image, else 0), of the band points' agreement (inside, else 1)
+    and of the outline pairs' ``a_in (1 - a_out)`` (both inside, else 0), at the fixed light
+    offsets ``offsets`` (2, 3), with every point slid by ``shifts`` (S, 2) mm in the model
+    plane. ``Ms`` (2, 3, 3) and ``ts`` (2, 3) map model points into each camera;
+    ``pair_out`` (N_in,) is each inner point's band point in an outline pair (-1: none),
+    ``cell_in`` (N_in,) and ``cell_out`` (N_out,) each point's cell (a pair counts in its
+    inner point's). Colour residuals as in :func:`soft_residuals_kernel`; a point's pixel
+    moves with a slide by the projection's forward differences over 1 mm (exact at no
+    slide, within about 0.002 px at 1 mm), and its slides are sampled together, where the
+    image is in cache. The two cameras run on two threads."""
+    n_in = p_in.shape[0]
+    n_out = p_out.shape[0]
+    S = shifts.shape[0]
+    for cam in prange(2):
+        M = Ms[cam]
+        t = ts[cam]
+        K = K1 if cam == 0 else K2
+        D = D1 if cam == 0 else D2
+        img = img1 if cam == 0 else img2
+        o = offsets[cam]
+        gain = np.empty(3)
+        _light_gain(o, gain)
+        sample = np.empty(3)
+        expected = np.empty(3)
+        band = np.empty((S, n_out, 3))
+        band_a = np.empty((S, n_out))
+        band_ok = np.empty((S, n_out), dtype=np.bool_)
+        sums = out[:, cam]
+        sums[:, :, :] = 0.0
+        d2 = np.empty(S)
+        a = np.empty(S)
+        for j in range(n_out):
+            u0, v0, du_x, dv_x, du_y, dv_y = _plane_affine(M, t, K, D, p_out[j, 0], p_out[j, 1])
+            c = cell_out[j]
+            for q in range(S):
+                u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
+                v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
+                ok = _bilinear(img, u, v, sample)
+                band_ok[q, j] = ok
+                for k in range(3):
+                    band[q, j, k] = sample[k]
+                dl = (sample[0] - f_out[j, 0] - o[0]) * scale_l
+                da = (sample[1] - f_out[j, 1] - o[1]) * scale_c
+                db = (sample[2] - f_out[j, 2] - o[2]) * scale_c
+                d2[q] = 0.5 * (dl * dl + da * da + db * db) if ok else 0.0
+            for q in range(S):        # apart, so that it vectorises
+                a[q] = exp_neg(d2[q])
+            for q in range(S):
+                band_a[q, j] = a[q] if band_ok[q, j] else 1.0
+                sums[q, 1, c] += band_a[q, j]
+        inside = np.empty(S, dtype=np.bool_)
+        for j in range(n_in):
+            u0, v0, du_x, dv_x, du_y, dv_y = _plane_affine(M, t, K, D, p_in[j, 0], p_in[j, 1])
+            c = cell_in[j]
+            mix = table_out[j]
+            pair = pair_out[j]
+            for q in range(S):
+                u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
+                v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
+                inside[q] = _bilinear(img, u, v, sample)
+                if inside[q] and mix_t > 0.0 and mix >= 0 and band_ok[q, mix]:
+                    _edge_mixture(lin_in[j], gain, band[q, mix], mix_t, expected)
+                else:
+                    for k in range(3):
+                        expected[k] = f_in[j, k] + o[k]
+                dl = (sample[0] - expected[0]) * scale_l
+                da = (sample[1] - expected[1]) * scale_c
+                db = (sample[2] - expected[2]) * scale_c
+                d2[q] = 0.5 * (dl * dl + da * da + db * db) if inside[q] else 0.0
+            for q in range(S):        # apart, so that it vectorises
+                a[q] = exp_neg(d2[q])
+            for q in range(S):
+                if inside[q]:
+                    sums[q, 0, c] += a[q]
+                    if pair >= 0 and band_ok[q, pair]:
+                        sums[q, 2, c] += a[q] * (1.0 - band_a[q, pair])

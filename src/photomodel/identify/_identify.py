@@ -26,10 +26,11 @@ For one stereo pair and a list of photo-models:
    low once, not twice, while a scene without one costs the extra searches and stays below
    the threshold.
 
-The score is ``locate``'s (:func:`~photomodel.locate.soft_score`), in [0, 1]: the mean of
+The score is ``locate``'s (:func:`~photomodel.fitness.score_terms`), in [0, 1]: the mean of
 the ``soft`` fitness at level 0 (about the share of the model's points that agree with both
 images once the band around the outline is accounted for) and the outline evidence (how much
-of the outline both cameras see as an edge).
+of the outline both cameras see as an edge), each 20 mm patch of the model free to slide by
+up to 1 mm (cloth beside a fold is pulled out of place).
 """
 
 from __future__ import annotations

@@ -15,10 +15,10 @@ from photomodel.fitness import (
     ScanResult,
     SoftFitness,
     StereoFeatures,
-    edge_evidence,
     make_fitness,
     relight_scan,
     scan_flat_poses,
+    score_terms,
 )
 from photomodel.geometry import (
     in_plane_angle_rad,
@@ -339,10 +339,10 @@ def locate_in_features(
             rng=gen, seeds=seeds, R_cam1_facing=features.rig.R_cam1_facing)
         searches += 1
         evaluations += attempt.evaluations
-        edges = edge_evidence(SoftFitness(model, features, 0,
-                                          optics_blur_mm=attempt.optics_blur_mm),
-                              _affine(attempt))
-        score = soft_score(attempt.fitness, edges)
+        terms = score_terms(SoftFitness(model, features, 0,
+                                        optics_blur_mm=attempt.optics_blur_mm),
+                            _affine(attempt))
+        score, edges = terms.score, terms.edge_evidence
         if score > best_score:
             best, best_score, best_edges = attempt, score, edges
     assert best is not None
@@ -362,8 +362,10 @@ def _affine(search: SearchResult) -> NDArray[np.float64]:
 
 
 def soft_score(fitness: float, edge_evidence: float) -> float:
-    """The ``soft`` method's score in [0, 1]: the mean of the level-0 fitness (clipped to
-    [0, 1]) and the outline evidence (:func:`~photomodel.fitness.edge_evidence`).
+    """The ``soft`` method's rigid score in [0, 1]: the mean of the level-0 fitness (clipped
+    to [0, 1]) and the outline evidence (:func:`~photomodel.fitness.edge_evidence`).
+    ``locate`` measures the same mean with each patch of the model free to slide by up to
+    1 mm (:func:`~photomodel.fitness.score_terms`); without the slack it is this.
 
     The fitness says how well the model's colours agree inside and disagree in the band
     around it; the outline evidence, how much of the outline shows as an edge. A garment
