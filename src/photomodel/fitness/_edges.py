@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from photomodel.fitness._soft import SoftFitness
 
-__all__ = ["ScoreSlack", "ScoreTerms", "edge_evidence", "score_terms"]
+__all__ = ["NO_SLACK", "ScoreSlack", "ScoreTerms", "edge_evidence", "score_terms"]
 
 
 @dataclass(frozen=True)
