@@ -231,6 +231,15 @@ class SoftFitness:
         n_in, n_out = len(self.samples.p_in), len(self.samples.p_out)
         return np.concatenate([np.full(n_in, 1.0 / n_in), np.full(n_out, -1.0 / max(n_out, 1))])
 
+    def _camera_maps(self, A_cam1_model: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The linear parts (2, 3, 3) and translations (2, 3) of the map (4, 4) of model
+        points into camera 1, and of its continuation into camera 2."""
+        R, T = self.features.rig.R, self.features.rig.T
+        A = A_cam1_model
+        return (np.ascontiguousarray(np.stack([A[:3, :3], R @ A[:3, :3]])),
+                np.ascontiguousarray(np.stack([A[:3, 3], R @ A[:3, 3] + T])))
+
     def residual_points(self) -> NDArray[np.float64]:
         """Model-frame points (N_in + N_out, 3), mm, of the residuals' samples, in their
         order (inner points first)."""
@@ -277,8 +286,7 @@ class SoftFitness:
         A = np.asarray(A_cam1_model, dtype=np.float64)
         dA = np.asarray(dA, dtype=np.float64)
         rig, s = self.features.rig, self.samples
-        Ms = np.stack([A[:3, :3], rig.R @ A[:3, :3]])
-        ts = np.stack([A[:3, 3], rig.R @ A[:3, 3] + rig.T])
+        Ms, ts = self._camera_maps(A)
         dX = dA[:, :3, [0, 1, 3]]     # per gene: the camera point's x, y and 1 coefficients
         dXs = np.ascontiguousarray(np.stack([dX, np.einsum("ij,gjk->gik", rig.R, dX)]))
         G = len(dA)
@@ -364,10 +372,8 @@ class SoftFitness:
 
         if self.palette_weight > 0:
             raise ValueError("slack_sums: defined for the own colours only (palette_weight 0)")
-        A = np.asarray(A_cam1_model, dtype=np.float64).reshape(4, 4)
         rig, s = self.features.rig, self.samples
-        Ms = np.ascontiguousarray(np.stack([A[:3, :3], rig.R @ A[:3, :3]]))
-        ts = np.ascontiguousarray(np.stack([A[:3, 3], rig.R @ A[:3, 3] + rig.T]))
+        Ms, ts = self._camera_maps(np.asarray(A_cam1_model, dtype=np.float64).reshape(4, 4))
         shifts = np.ascontiguousarray(np.asarray(shifts_mm, dtype=np.float64).reshape(-1, 2))
         out = np.empty((len(shifts), 2, 3, cells))
         pairs = (s.table_out if s.table_out is not None
@@ -376,8 +382,8 @@ class SoftFitness:
         soft_slack_sums_kernel(Ms, ts, self.K1, rig.cam1.distortion12, self.K2,
                                rig.cam2.distortion12, shifts, s.p_in, s.f_in, s.p_out, s.f_out,
                                self.features.pyramids[0][self.level],
-                               self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
-                               math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
+                               self.features.pyramids[1][self.level], inv_var_l, inv_var_c,
+                               self._table_out, self.edge_mix_fraction,
                                self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
                                pairs, np.ascontiguousarray(cell_in, dtype=np.intp),
                                np.ascontiguousarray(cell_out, dtype=np.intp), out)

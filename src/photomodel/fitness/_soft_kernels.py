@@ -42,13 +42,18 @@ def _bilinear(img, u, v, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
+    """Pixel (u, v) where the model-plane point ``(x, y)`` lies at pose ``(R, t)`` through
+    camera ``K``, ``D``."""
+    return _project(R[0, 0] * x + R[0, 1] * y + t[0], R[1, 0] * x + R[1, 1] * y + t[1],
+                    R[2, 0] * x + R[2, 1] * y + t[2], K, D)
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _sample_point(R, t, K, D, x, y, img, out):  # pragma: no cover - compiled
     """``out`` = the bilinear sample of ``img`` where the model-plane point ``(x, y)`` lies at
     pose ``(R, t)`` through camera ``K``, ``D``; False when it falls outside the image."""
-    X = R[0, 0] * x + R[0, 1] * y + t[0]
-    Y = R[1, 0] * x + R[1, 1] * y + t[1]
-    Z = R[2, 0] * x + R[2, 1] * y + t[2]
-    u, v = _project(X, Y, Z, K, D)
+    u, v = _plane_pixel(R, t, K, D, x, y)
     return _bilinear(img, u, v, out)
 
 
@@ -345,21 +350,16 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
 def _plane_affine(R, t, K, D, x, y):  # pragma: no cover - compiled
     """Pixel (u, v) of the model-plane point ``(x, y)`` and the pixel steps of 1 mm along the
     model's x and y there (forward differences): (u, v, du_x, dv_x, du_y, dv_y)."""
-    u, v = _project(R[0, 0] * x + R[0, 1] * y + t[0], R[1, 0] * x + R[1, 1] * y + t[1],
-                    R[2, 0] * x + R[2, 1] * y + t[2], K, D)
-    ux, vx = _project(R[0, 0] * (x + 1.0) + R[0, 1] * y + t[0],
-                      R[1, 0] * (x + 1.0) + R[1, 1] * y + t[1],
-                      R[2, 0] * (x + 1.0) + R[2, 1] * y + t[2], K, D)
-    uy, vy = _project(R[0, 0] * x + R[0, 1] * (y + 1.0) + t[0],
-                      R[1, 0] * x + R[1, 1] * (y + 1.0) + t[1],
-                      R[2, 0] * x + R[2, 1] * (y + 1.0) + t[2], K, D)
+    u, v = _plane_pixel(R, t, K, D, x, y)
+    ux, vx = _plane_pixel(R, t, K, D, x + 1.0, y)
+    uy, vy = _plane_pixel(R, t, K, D, x, y + 1.0)
     return u, v, ux - u, vx - v, uy - u, vy - v
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_out, img1,
-                           img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, pair_out,
-                           cell_in, cell_out, out):  # pragma: no cover - compiled
+                           img2, inv_var_l, inv_var_c, table_out, mix_t, lin_in, offsets,
+                           pair_out, cell_in, cell_out, out):  # pragma: no cover - compiled
     """Fill ``out`` (S, 2, 3, C) with each (slide, camera, cell)'s sums of the inner points'
     agreement (inside the image, else 0), of the band points' agreement (inside, else 1)
     and of the outline pairs' ``a_in (1 - a_out)`` (both inside, else 0), at the fixed light
@@ -367,7 +367,7 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
     plane. ``Ms`` (2, 3, 3) and ``ts`` (2, 3) map model points into each camera;
     ``pair_out`` (N_in,) is each inner point's band point in an outline pair (-1: none),
     ``cell_in`` (N_in,) and ``cell_out`` (N_out,) each point's cell (a pair counts in its
-    inner point's). Colour residuals as in :func:`soft_residuals_kernel`; a point's pixel
+    inner point's). Colours compared as in :func:`soft_fitness_kernel`; a point's pixel
     moves with a slide by the projection's forward differences over 1 mm (exact at no
     slide, within about 0.002 px at 1 mm), and its slides are sampled together, where the
     image is in cache. The two cameras run on two threads."""
@@ -385,6 +385,7 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
         _light_gain(o, gain)
         sample = np.empty(3)
         expected = np.empty(3)
+        diff = np.empty(3)
         band = np.empty((S, n_out, 3))
         band_a = np.empty((S, n_out))
         band_ok = np.empty((S, n_out), dtype=np.bool_)
@@ -402,10 +403,9 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
                 band_ok[q, j] = ok
                 for k in range(3):
                     band[q, j, k] = sample[k]
-                dl = (sample[0] - f_out[j, 0] - o[0]) * scale_l
-                da = (sample[1] - f_out[j, 1] - o[1]) * scale_c
-                db = (sample[2] - f_out[j, 2] - o[2]) * scale_c
-                d2[q] = 0.5 * (dl * dl + da * da + db * db) if ok else 0.0
+                d2[q] = 0.5 * _distance2(sample[0] - f_out[j, 0], sample[1] - f_out[j, 1],
+                                         sample[2] - f_out[j, 2], o, inv_var_l,
+                                         inv_var_c) if ok else 0.0
             for q in range(S):        # apart, so that it vectorises
                 a[q] = exp_neg(d2[q])
             for q in range(S):
@@ -423,13 +423,13 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
                 inside[q] = _bilinear(img, u, v, sample)
                 if inside[q] and mix_t > 0.0 and mix >= 0 and band_ok[q, mix]:
                     _edge_mixture(lin_in[j], gain, band[q, mix], mix_t, expected)
+                    for k in range(3):   # so that diff - o = sample - expected
+                        diff[k] = sample[k] - expected[k] + o[k]
                 else:
                     for k in range(3):
-                        expected[k] = f_in[j, k] + o[k]
-                dl = (sample[0] - expected[0]) * scale_l
-                da = (sample[1] - expected[1]) * scale_c
-                db = (sample[2] - expected[2]) * scale_c
-                d2[q] = 0.5 * (dl * dl + da * da + db * db) if inside[q] else 0.0
+                        diff[k] = sample[k] - f_in[j, k]
+                d2[q] = 0.5 * _distance2(diff[0], diff[1], diff[2], o, inv_var_l,
+                                         inv_var_c) if inside[q] else 0.0
             for q in range(S):        # apart, so that it vectorises
                 a[q] = exp_neg(d2[q])
             for q in range(S):
