@@ -17,7 +17,6 @@ from photomodel.fitness import (
     edge_evidence,
     score_terms,
 )
-from photomodel.image._features import features_from_linear, linear_intensity, log_opponent
 from photomodel.locate import load_threshold, locate, soft_score
 from photomodel.sim import scene_rng
 
@@ -26,13 +25,6 @@ from photomodel.sim import scene_rng
 def _case(garment: str, condition: str = "paper"):
     config = ExperimentConfig(garments=(garment,), conditions=(condition,), trials=1, seed=0)
     return trial_inputs(config, Trial(f"{condition}_{garment}_0000", garment, condition, 0))
-
-
-def test_features_from_linear_inverts_linear_intensity() -> None:
-    bgr = np.random.default_rng(1).integers(0, 256, (6, 4, 3), dtype=np.uint8)
-    features = log_opponent(bgr).astype(np.float64)
-    np.testing.assert_allclose(features_from_linear(linear_intensity(features)), features,
-                               atol=1e-12)
 
 
 def test_a_garment_shows_its_outline_a_region_of_its_colour_does_not() -> None:

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-__all__ = ["LOG_OFFSET", "feature_pyramid", "features_from_linear", "linear_intensity",
+__all__ = ["LOG_OFFSET", "feature_pyramid", "linear_intensity",
            "log_opponent"]
 
 LOG_OFFSET = 8.0
@@ -32,8 +32,7 @@ _LUT = np.log(np.arange(256, dtype=np.float64) + LOG_OFFSET).astype(np.float32)
 _OPPONENT = np.array([[1 / 3, 1 / 3, 1 / 3],
                       [0.0, -1.0, 1.0],
                       [-1.0, 0.5, 0.5]], dtype=np.float32)
-_OPPONENT_64 = _OPPONENT.astype(np.float64)
-_LOGS_FROM_FEATURES = np.linalg.inv(_OPPONENT_64)
+_LOGS_FROM_FEATURES = np.linalg.inv(_OPPONENT.astype(np.float64))
 
 
 def log_opponent(image_bgr: NDArray[np.uint8], smooth_sigma_px: float = 0.0
@@ -74,12 +73,6 @@ def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:
     """The intensities ``(B', G', R') = (B, G, R) + LOG_OFFSET`` (..., 3) of log-opponent
     features (..., 3): the inverse of :func:`log_opponent` before its rounding to uint8."""
     return np.exp(np.asarray(features, dtype=np.float64) @ _LOGS_FROM_FEATURES.T)
-
-
-def features_from_linear(intensity: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Log-opponent features (..., 3) of intensities ``(B', G', R')`` (..., 3) that include
-    ``LOG_OFFSET``: the inverse of :func:`linear_intensity`."""
-    return np.log(np.asarray(intensity, dtype=np.float64)) @ _OPPONENT_64.T
 
 
 def feature_pyramid(features: NDArray[np.float32], levels: int) -> list[NDArray[np.float32]]:
