@@ -12,6 +12,7 @@ from photomodel.fitness import (
     ScanConfig,
     SoftFitness,
     StereoFeatures,
+    _scan,
     light_offset_candidates,
     model_samples,
     relight_scan,
@@ -88,8 +89,6 @@ def test_scan_peaks_face_the_rig_and_are_distinct_sorted_and_in_the_box() -> Non
     space = SearchSpace.from_ranges(x_mm=(-150.0, 150.0), theta_deg=30.0)
     config = ScanConfig(hypotheses=6)
     result = scan_flat_poses(model, features, space.lower, space.upper, config)
-    from photomodel.fitness import _scan
-
     depths = _scan._depth_grid(space.lower[2], space.upper[2], config.z_step)
     angles = _scan._angle_grid(space.lower[5], space.upper[5], config.theta_step_deg)
     scanned = np.sum(depths <= space.upper[2])     # none beyond the box
@@ -370,3 +369,19 @@ def test_the_scan_finds_the_same_peaks_on_one_thread_and_on_two() -> None:
     threaded = scan_flat_poses(model, features, space.lower, space.upper)
     np.testing.assert_array_equal(serial.poses, threaded.poses)
     np.testing.assert_array_equal(serial.scores, threaded.scores)
+
+
+def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> None:
+    rng = np.random.default_rng(3)
+    image = rng.normal(size=(12, 17, 3)).astype(np.float32)
+    colours = rng.normal(size=(4, 3)).astype(np.float32)
+    weights = np.array([1.0, 4.0, 2.5], dtype=np.float32)
+    d2 = (((image[None] - colours[:, None, None]) ** 2) * weights).sum(axis=-1)
+    np.testing.assert_allclose(_scan._agreements(image, colours, weights), np.exp(-0.5 * d2),
+                               rtol=1e-6)
+    maps = np.zeros((2, 6, 7), dtype=np.float32)
+    maps[0, 1, 2], maps[0, 4, 5], maps[0, 4, 4] = 0.5, 0.9, 0.3   # (4, 4) sits beside a higher
+    maps[1, 3, 3] = -0.2                                         # a map without positive peaks
+    angle, row, col, value = _scan._local_maxima(maps, per_map=4)
+    assert angle.tolist() == [0, 0] and row.tolist() == [4, 1] and col.tolist() == [5, 2]
+    np.testing.assert_allclose(value, [0.9, 0.5])

@@ -262,10 +262,9 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
     h, w = features.pyramids[0][c.level].shape[:2]
     scale = 0.5**c.level
     rig = features.rig
-    agree1 = [_agreement(features.pyramids[0][c.level], palette[k] + shift, weights)
-              for k in colours]
-    agree2 = [_agreement(features.pyramids[1][c.level], palette[k] + shift, weights)
-              for k in colours]
+    targets = (palette[colours] + shift).astype(np.float32)
+    agree1 = _agreements(features.pyramids[0][c.level], targets, weights.astype(np.float32))
+    agree2 = _agreements(features.pyramids[1][c.level], targets, weights.astype(np.float32))
 
     zs = _depth_grid(lower[2], upper[2], c.z_step)
     thetas = _angle_grid(lower[5], upper[5], c.theta_step_deg)
@@ -296,7 +295,7 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
             depths.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z)),
                            kernels, shape))
 
-    def depth_peaks(depth: tuple[Any, ...]) -> list[tuple[float, float, float, float, float]]:
+    def depth_peaks(depth: tuple[Any, ...]) -> NDArray[np.float64]:
         z, (rays, maps1, maps2), kernels, shape = depth
         h_z, w_z = rays.shape[:2]
         both = np.zeros((len(colours), *shape), dtype=np.float32)
@@ -306,15 +305,13 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
                 + cv2.remap(a2, *maps2, cv2.INTER_LINEAR, borderValue=0.0))
         fitness = scipy.fft.irfft2(_weighted_sum(scipy.fft.rfft2(both), kernels),
                                    s=shape)[:, :h_z, :w_z]
-        return [(score, z, float(thetas[angle]), *rays[v, u, :2])
-                for angle, v, u, score in _local_maxima(fitness)]
+        angle, v, u, score = _local_maxima(fitness)
+        return np.column_stack([score, np.full(len(score), z), thetas[angle], rays[v, u, :2]])
 
     # Depths side by side, one thread each (the FFTs and kernels release the GIL): 1.9x on
     # two threads, where threads inside each depth's small FFTs gave 1.2x.
-    peaks: list[tuple[float, float, float, float, float]] = []
-    for found_at_depth in _map_threads(depth_peaks, depths, workers):
-        peaks.extend(found_at_depth)
-    peaks.sort(reverse=True)
+    peaks = np.concatenate([np.zeros((0, 5)), *_map_threads(depth_peaks, depths, workers)])
+    peaks = peaks[np.lexsort(-peaks.T[::-1])]    # best score first (ties: farther, ...)
     found = _distinct_peaks(peaks, lower, upper, c, len(depths) * len(thetas))
     # The scan's grid is square to camera 1; a garment on the table faces the rig.
     found = replace(found, poses=facing_pose_vectors(found.poses, rig.R_cam1_facing),
@@ -383,11 +380,21 @@ def _nearest(colours: NDArray[np.float64], palette: NDArray[np.float64],
     return np.argmin(d2, axis=1)
 
 
-def _agreement(image: NDArray[np.float32], colour: NDArray[np.float64],
-               weights: NDArray[np.float64]) -> NDArray[np.float32]:
-    """``exp(-d^2 / 2)`` of every pixel's feature to ``colour`` (H, W) float32."""
-    d2 = (((image - colour.astype(np.float32)) ** 2) * weights.astype(np.float32)).sum(axis=-1)
-    return np.exp(-0.5 * d2).astype(np.float32)
+@njit(cache=True, nogil=True)
+def _agreements(image, colours, weights):  # pragma: no cover - compiled
+    """``exp(-d^2 / 2)`` of every pixel's feature (H, W, 3) float32 to each of ``colours``
+    (C, 3), ``d^2`` weighted by ``weights`` (3,): (C, H, W) float32."""
+    H, W = image.shape[:2]
+    out = np.empty((colours.shape[0], H, W), dtype=np.float32)
+    for k in range(colours.shape[0]):
+        for r in range(H):
+            for c in range(W):
+                d0 = image[r, c, 0] - colours[k, 0]
+                d1 = image[r, c, 1] - colours[k, 1]
+                d2 = image[r, c, 2] - colours[k, 2]
+                s = d0 * d0 * weights[0] + d1 * d1 * weights[1] + d2 * d2 * weights[2]
+                out[k, r, c] = np.exp(np.float32(-0.5) * s)
+    return out
 
 
 _GRIDS: OrderedDict[tuple[Any, ...], tuple[NDArray[np.float64], tuple[NDArray[np.float32], ...],
@@ -491,13 +498,17 @@ def _weighted_sum(spectrum, kernels):  # pragma: no cover - compiled
     return out
 
 
-def _local_maxima(f: NDArray[np.float64], per_map: int = 4
-                  ) -> list[tuple[int, int, int, float]]:
+def _local_maxima(f: NDArray[np.float32], per_map: int = 4
+                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
+                             NDArray[np.float64]]:
     """Up to ``per_map`` highest positive 3 x 3 local maxima of each map of ``f`` (A, H, W),
-    as (map, row, column, value), the edge repeated beyond the border."""
-    found = _top_maxima(f, per_map)    # a strided float32 view: no copy
-    return [(a, int(r), int(c), float(v)) for a in range(len(found))
-            for r, c, v in found[a] if v > 0]
+    the edge repeated beyond the border: their maps, rows, columns and values, map by map,
+    best first in each."""
+    found = _top_maxima(f, per_map).reshape(-1, 3)    # a strided float32 view: no copy
+    keep = found[:, 2] > 0
+    rows = found[keep]
+    return (np.repeat(np.arange(len(f)), per_map)[keep], rows[:, 0].astype(np.intp),
+            rows[:, 1].astype(np.intp), rows[:, 2])
 
 
 @njit(cache=True, nogil=True)
@@ -530,12 +541,12 @@ def _top_maxima(f, per_map):  # pragma: no cover - compiled
     return out
 
 
-def _distinct_peaks(peaks: list[tuple[float, float, float, float, float]],
-                    lower: NDArray[np.float64],
+def _distinct_peaks(peaks: NDArray[np.float64], lower: NDArray[np.float64],
                     upper: NDArray[np.float64], c: ScanConfig, maps: int) -> ScanResult:
-    """The best ``c.candidates`` peaks, distinct in camera ray or angle, inside the box, as
-    pose vectors; trusted by the best one's score."""
-    p = np.asarray(peaks, dtype=np.float64).reshape(-1, 5)   # score, z, angle, ray x, ray y
+    """The best ``c.candidates`` of ``peaks`` (N, 5: score, z, angle, ray x, ray y; best
+    first), distinct in camera ray or angle, inside the box, as pose vectors; trusted by the
+    best one's score."""
+    p = np.asarray(peaks, dtype=np.float64).reshape(-1, 5)
     xyz = np.column_stack([p[:, 3] * p[:, 1], p[:, 4] * p[:, 1], p[:, 1]])
     inside = np.all((xyz >= lower[:3]) & (xyz <= upper[:3]), axis=1)
     kept: list[tuple[float, float, float, float, float]] = []
