@@ -151,6 +151,8 @@ def test_scan_config_rejects_bad_values() -> None:
         ScanConfig(hypotheses=4, candidates=3)
     with pytest.raises(ValueError, match="ScanConfig"):
         ScanConfig(depths_per_kernel=0)
+    with pytest.raises(ValueError, match="ScanConfig"):
+        ScanConfig(level=3, detail_level=4)
     model, features, _ = _case("No.1")
     space = SearchSpace.from_ranges()
     with pytest.raises(ValueError, match="level"):
@@ -385,3 +387,19 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     angle, row, col, value = _scan._local_maxima(maps, per_map=4)
     assert angle.tolist() == [0, 0] and row.tolist() == [4, 1] and col.tolist() == [5, 2]
     np.testing.assert_allclose(value, [0.9, 0.5])
+
+
+@pytest.mark.parametrize("garment", ["No.3", "No.6", "No.12"])
+def test_a_level_4_scan_with_level_3_points_finds_small_and_printed_garments(garment: str) -> None:
+    model, features, T_true = _case(garment)
+    space = SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
+    coarse = ScanConfig(level=4, detail_level=3)
+    found = scan_flat_poses(model, features, space.lower, space.upper, coarse)
+    assert found.trusted
+    ray_error_mm = np.linalg.norm(found.poses[:, :2] / found.poses[:, 2:3]
+                                  - T_true[:2, 3] / T_true[2, 3], axis=1) * T_true[2, 3]
+    assert ray_error_mm.min() < 20.0, ray_error_mm
+    # Its kernels are those of level 3's points, kept apart from the plain level-4 scan's.
+    spacing = _scan._scan_spacing(coarse)
+    assert spacing.grid_mm == level_spacing(3).grid_mm
+    assert spacing.blur_mm == level_spacing(4).blur_mm

@@ -128,3 +128,20 @@ def test_locate_searches_again_while_the_score_is_below_the_threshold(plaid_case
     assert twice.search.evaluations > single.search.evaluations
     with pytest.raises(ValueError, match="retries"):
         locate_in_features(plaid_case.built.model, features, retries=-1)
+
+
+def test_locate_looks_with_the_level_3_scan_when_the_coarse_one_scores_under(plaid_case) -> None:
+    from photomodel.fitness import StereoFeatures
+    from photomodel.locate import locate_in_features
+
+    scene = random_stereo_scene(plaid_case.garment, plaid_case.rig, rng=1001)
+    features = StereoFeatures(plaid_case.rig, scene.right_bgr, scene.left_bgr)
+    model = plaid_case.built.model
+    coarse = locate_in_features(model, features, rng=0)
+    fine = locate_in_features(model, features, rng=0, coarse_scan=None)
+    assert coarse.found and fine.found and "searches" not in coarse.search.stop_reason
+    assert np.abs(coarse.T_cam1_model[:3, 3] - fine.T_cam1_model[:3, 3]).max() < 1.0
+    # A threshold no search reaches: the coarse search, level 3's and its retry.
+    strict = locate_in_features(model, features, rng=0, min_score=1.01)
+    assert not strict.found and strict.search.stop_reason.startswith("best of 3 searches")
+    assert strict.score >= coarse.score - 1e-9

@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness._light import light_offset_candidates
-from photomodel.fitness._samples import model_samples
+from photomodel.fitness._samples import SampleSpacing, model_samples
 from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
 from photomodel.geometry import facing_pose_vectors
 from photomodel.model import PhotoModel
@@ -118,6 +118,12 @@ class ScanConfig:
     relight : int
         Light offsets guessed from the scene's colours that :func:`relight_scan` scans
         with when a scan is not trusted (0: none).
+    detail_level : int, optional
+        Level whose sample points make the kernels and whose ``soft`` fitness ranks the
+        candidates (None: ``level``). A scan of level 4 (40 x 30 pixels) with the sample
+        points of level 3 and their colours blurred as level 4's: level 4's own points lie
+        16 mm apart and a sock has none inside; a print's colours average there as in the
+        image. :func:`~photomodel.locate.locate_in_features` looks with such a scan first.
     rank_margin : float
         A trusted scan drops the hypotheses whose re-ranking fitness lies more than this
         below the best one's: each costs an evolution strategy on level 3, and one that far
@@ -137,9 +143,11 @@ class ScanConfig:
     trusted_score: float = 0.065
     relight: int = 2
     rank_margin: float = 0.3
+    detail_level: int | None = None
 
     def __post_init__(self) -> None:
         if not (self.level >= 0 and self.relight >= 0 and self.rank_margin >= 0
+                and (self.detail_level is None or 0 <= self.detail_level <= self.level)
                 and self.theta_step_deg > 0
                 and self.z_step > 0 and 1 <= self.hypotheses <= self.candidates
                 and self.min_separation >= 0 and self.depths_per_kernel >= 1
@@ -231,7 +239,7 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
         them).
     """
     c = config or ScanConfig()
-    samples = model_samples(model, level_spacing(c.level))
+    samples = model_samples(model, _scan_spacing(c))
     relit = [scan_flat_poses(model, features, lower, upper, c, light_offset=offset)
              for _, offset in light_offset_candidates(samples.f_in,
                                                       features.pyramids[0][c.level],
@@ -250,7 +258,7 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
           upper: NDArray[np.float64], c: ScanConfig, shift: NDArray[np.float64]
           ) -> ScanResult:
     """One scan of :func:`scan_flat_poses`, the garment's colours shifted by ``shift``."""
-    samples = model_samples(model, level_spacing(c.level))
+    samples = model_samples(model, _scan_spacing(c))
     palette = samples.palette
     m = features.match
     weights = np.array([1 / m.sigma_l**2, 1 / m.sigma_c**2, 1 / m.sigma_c**2])
@@ -282,7 +290,7 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
         z_ref = zs[min(first + c.depths_per_kernel, len(zs)) - 1]
         reach = int(np.ceil(radius_mm * K1[0, 0] / z_ref)) + 2
         shape = (scipy.fft.next_fast_len(h + reach), scipy.fft.next_fast_len(w + reach))
-        key = (c.level, m, K1.tobytes(), thetas.tobytes(), float(z_ref), shape)
+        key = (c.level, _detail(c), m, K1.tobytes(), thetas.tobytes(), float(z_ref), shape)
         kernels = _cached(model, key, lambda: np.conj(scipy.fft.rfft2(  # noqa: B023
             _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),  # noqa: B023
             workers=workers)))
@@ -326,11 +334,25 @@ def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: S
             margin: float) -> ScanResult:
     """The best ``c.hypotheses`` peaks of ``found`` by the scanned level's ``soft`` fitness
     (light offsets free), without those more than ``margin`` below the best one's."""
-    fitness = SoftFitness(model, features, c.level)(found.poses)
+    fitness = SoftFitness(model, features, _detail(c))(found.poses)
     best = np.argsort(-fitness, kind="stable")[:c.hypotheses]
     best = best[fitness[best] >= fitness[best[0]] - margin]
     return ScanResult(found.poses[best], found.scores[best], found.maps, found.trusted,
                       found.light_offsets[best])
+
+
+def _detail(c: ScanConfig) -> int:
+    """The level of ``c``'s sample points and ranking (``detail_level``, else ``level``)."""
+    return c.level if c.detail_level is None else c.detail_level
+
+
+def _scan_spacing(c: ScanConfig) -> SampleSpacing:
+    """The samples a scan with ``c`` correlates: ``_detail(c)``'s points, the colours blurred
+    as the scanned level's."""
+    spacing = level_spacing(_detail(c))
+    if _detail(c) == c.level:
+        return spacing
+    return replace(spacing, blur_mm=level_spacing(c.level).blur_mm)
 
 
 _THREADS: dict[tuple[int, int], ThreadPoolExecutor] = {}

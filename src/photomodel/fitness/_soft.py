@@ -93,12 +93,13 @@ class StereoFeatures:
     right_bgr, left_bgr : ndarray (H, W, 3) uint8
         Camera 1 and camera 2 images (sizes checked against the calibration).
     levels : int
-        Pyramid levels (level k is 2**k times coarser).
+        Pyramid levels (level k is 2**k times coarser): the search uses levels 0-3, the
+        first scan of :func:`~photomodel.locate.locate_in_features` level 4.
     match : SoftMatch, optional
     """
 
     def __init__(self, rig: StereoRig, right_bgr: NDArray[np.uint8],
-                 left_bgr: NDArray[np.uint8], levels: int = 4,
+                 left_bgr: NDArray[np.uint8], levels: int = 5,
                  match: SoftMatch | None = None) -> None:
         rig.cam1.check_image(right_bgr, "right image")
         rig.cam2.check_image(left_bgr, "left image")

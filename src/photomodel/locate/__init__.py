@@ -1,6 +1,7 @@
 """Locating a photo-model in a stereo pair: the search loop, the result, the overlay."""
 
 from photomodel.locate._locate import (
+    COARSE_SCAN,
     DEFAULT_FITNESS,
     DEFAULT_MIN_SCORE,
     PAPER_METHOD,
@@ -20,6 +21,7 @@ from photomodel.locate._threshold import (
 )
 
 __all__ = [
+    "COARSE_SCAN",
     "DEFAULT_FITNESS",
     "DEFAULT_MIN_SCORE",
     "PAPER_METHOD",

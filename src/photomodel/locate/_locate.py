@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness import (
+    ScanConfig,
     ScanResult,
     SoftFitness,
     StereoFeatures,
@@ -245,6 +246,12 @@ def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8]
     return locate_in_features(model, features, space=space, rng=rng, min_score=min_score, t0=t0)
 
 
+COARSE_SCAN = ScanConfig(level=4, detail_level=3)
+"""The first scan of :func:`locate_in_features`: level 4 with level 3's sample points (a
+third of level 3's scan time); level 3's scan follows only when it is not trusted or the search
+from its peaks scores under the threshold."""
+
+
 def locate_in_features(
     model: PhotoModel,
     features: StereoFeatures,
@@ -257,6 +264,7 @@ def locate_in_features(
     scan: ScanResult | None = None,
     second_look: bool = False,
     pyramid: PyramidConfig | None = None,
+    coarse_scan: ScanConfig | None = COARSE_SCAN,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -291,17 +299,22 @@ def locate_in_features(
         restarts: :meth:`~photomodel.search.PyramidConfig.for_retry`), and keeps the best;
         after a trusted scan, the first retry also starts from the relit scan's peaks (an
         overexposed print can keep a wrong peak above ``trusted_score``). A scene without
-        the garment costs ``1 + retries`` searches.
+        the garment costs ``1 + retries`` searches (one more after a trusted coarse scan).
     scan : ScanResult, optional
         This model's :func:`~photomodel.fitness.scan_flat_poses` of ``features`` with
         ``space``'s bounds, when the caller has it already (it is deterministic; an
-        untrusted one is relit here).
+        untrusted one is relit here). No coarse scan runs then.
     second_look : bool
         The caller searched once already (``identify``'s second look): every search runs the
         retry configuration.
     pyramid : PyramidConfig, optional
         Settings of the coarse-to-fine search (default ``PyramidConfig()``); a retry runs
         their :meth:`~photomodel.search.PyramidConfig.for_retry`.
+    coarse_scan : ScanConfig or None
+        Before all this, a cheaper scan (default :data:`COARSE_SCAN`, level 4, when the
+        features have it); when it is trusted, a search from its peaks comes first, and
+        when that scores at least ``min_score`` it is the result. Otherwise the above
+        follows, and the result is the best of every search. None: no coarse scan.
 
     Returns
     -------
@@ -316,39 +329,45 @@ def locate_in_features(
         min_score = load_threshold().min_score
     gen = np.random.default_rng(rng)
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
-    best: PyramidResult | None = None
-    searches = evaluations = 0
     config = pyramid or PyramidConfig()
-    if scan is None:
-        scan = scan_flat_poses(model, features, space.lower, space.upper)
-    relit = not scan.trusted
-    if relit:
-        scan = relight_scan(model, features, space.lower, space.upper, keep=scan) or scan
-    if not scan.trusted:
-        config = replace(config, ga_with_seeds=True)
-    seeds = list(scan.poses)
-    best_score = best_edges = -np.inf
-    while searches <= retries and best_score < min_score:
-        if searches == 1 and not relit:     # a trusted scan's peaks missed: relight them too
-            again = relight_scan(model, features, space.lower, space.upper)
-            seeds = [*(again.poses if again is not None else []), *seeds]
+    attempts: list[tuple[PyramidResult, float, float]] = []   # (search, score, evidence)
+
+    def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> float:
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
-            space, config if searches == 0 and not second_look else config.for_retry(),
-            rng=gen, seeds=seeds, R_cam1_facing=features.rig.R_cam1_facing)
-        searches += 1
-        evaluations += attempt.evaluations
+            space, settings, rng=gen, seeds=seeds, R_cam1_facing=features.rig.R_cam1_facing)
         terms = score_terms(SoftFitness(model, features, 0,
                                         optics_blur_mm=attempt.optics_blur_mm),
                             _affine(attempt))
-        score, edges = terms.score, terms.edge_evidence
-        if score > best_score:
-            best, best_score, best_edges = attempt, score, edges
-    assert best is not None
-    if searches > 1:
-        best = replace(best, evaluations=evaluations,
-                       stop_reason=f"best of {searches} searches: {best.stop_reason}")
+        attempts.append((attempt, terms.score, terms.edge_evidence))
+        return terms.score
+
+    if scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
+        first = scan_flat_poses(model, features, space.lower, space.upper, coarse_scan)
+        if first.trusted and not second_look:
+            search(list(first.poses), config)
+    if not attempts or attempts[-1][1] < min_score:
+        if scan is None:
+            scan = scan_flat_poses(model, features, space.lower, space.upper)
+        relit = not scan.trusted
+        if relit:
+            scan = relight_scan(model, features, space.lower, space.upper, keep=scan) or scan
+        if not scan.trusted:
+            config = replace(config, ga_with_seeds=True)
+        seeds = list(scan.poses)
+        searches = 0
+        while searches <= retries and (searches == 0
+                                       or max(a[1] for a in attempts) < min_score):
+            if searches == 1 and not relit:  # a trusted scan's peaks missed: relight them too
+                again = relight_scan(model, features, space.lower, space.upper)
+                seeds = [*(again.poses if again is not None else []), *seeds]
+            search(seeds, config if searches == 0 and not second_look else config.for_retry())
+            searches += 1
+    best, best_score, best_edges = max(attempts, key=lambda a: a[1])
+    if len(attempts) > 1:
+        best = replace(best, evaluations=sum(a[0].evaluations for a in attempts),
+                       stop_reason=f"best of {len(attempts)} searches: {best.stop_reason}")
     T = pose_vectors_to_matrices(best.x)[0]
     return LocateResult(model.name, bool(best_score >= min_score), T, float(best.fitness),
                         best_score, time.perf_counter() - t0, best, best_edges)
