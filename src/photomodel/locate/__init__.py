@@ -1,6 +1,7 @@
 """Locating a photo-model in a stereo pair: the search loop, the result, the overlay."""
 
 from photomodel.locate._locate import (
+    COARSE_MIN_SCORE,
     COARSE_SCAN,
     DEFAULT_FITNESS,
     DEFAULT_MIN_SCORE,
@@ -21,6 +22,7 @@ from photomodel.locate._threshold import (
 )
 
 __all__ = [
+    "COARSE_MIN_SCORE",
     "COARSE_SCAN",
     "DEFAULT_FITNESS",
     "DEFAULT_MIN_SCORE",
