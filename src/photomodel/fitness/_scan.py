@@ -270,9 +270,8 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
     h, w = features.pyramids[0][c.level].shape[:2]
     scale = 0.5**c.level
     rig = features.rig
-    targets = (palette[colours] + shift).astype(np.float32)
-    agree1 = _agreements(features.pyramids[0][c.level], targets, weights.astype(np.float32))
-    agree2 = _agreements(features.pyramids[1][c.level], targets, weights.astype(np.float32))
+    targets, weights32 = (palette[colours] + shift).astype(np.float32), weights.astype(np.float32)
+    agree1, agree2 = (_agreements(p[c.level], targets, weights32) for p in features.pyramids)
 
     zs = _depth_grid(lower[2], upper[2], c.z_step)
     thetas = _angle_grid(lower[5], upper[5], c.theta_step_deg)

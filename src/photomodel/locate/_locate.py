@@ -249,7 +249,7 @@ def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8]
 COARSE_SCAN = ScanConfig(level=4, detail_level=3)
 """The first scan of :func:`locate_in_features`: level 4 with level 3's sample points (a
 third of level 3's scan time); level 3's scan follows only when it is not trusted or the search
-from its peaks scores under the threshold."""
+from its peaks scores under :data:`COARSE_MIN_SCORE` (or the threshold, where higher)."""
 
 COARSE_MIN_SCORE = 0.6
 """The score from which the search from :data:`COARSE_SCAN`'s peaks ends the work (or the
@@ -321,8 +321,8 @@ def locate_in_features(
         Before all this, a cheaper scan (default :data:`COARSE_SCAN`, level 4, when the
         features have it); when it is trusted, a search from its peaks comes first, and
         when that scores at least ``min_score`` and :data:`COARSE_MIN_SCORE` it is the
-        result. Otherwise the above
-        follows, and the result is the best of every search. None: no coarse scan.
+        result. Otherwise the above follows, and the result is the best of every search.
+        None: no coarse scan.
 
     Returns
     -------
@@ -340,7 +340,7 @@ def locate_in_features(
     config = pyramid or PyramidConfig()
     attempts: list[tuple[PyramidResult, float, float]] = []   # (search, score, evidence)
 
-    def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> float:
+    def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> None:
         attempt = pyramid_search(
             lambda level, weight, blur: SoftFitness(model, features, level,
                                                     palette_weight=weight, optics_blur_mm=blur),
@@ -349,7 +349,6 @@ def locate_in_features(
                                         optics_blur_mm=attempt.optics_blur_mm),
                             _affine(attempt))
         attempts.append((attempt, terms.score, terms.edge_evidence))
-        return terms.score
 
     if scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
         first = scan_flat_poses(model, features, space.lower, space.upper, coarse_scan)
