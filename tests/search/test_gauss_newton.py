@@ -335,8 +335,9 @@ def test_an_unconverged_gauss_newton_hands_over_to_cma_above_level_0() -> None:
 
 
 def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
-    """``min_gain`` ends a creep after two small gains in a row; ``min_step`` ends the damping
-    of a rejected step once it is under that many difference steps."""
+    """``min_gain`` ends a creep after ``min_gain_steps`` small gains in a row (one by
+    default); ``min_step`` ends the damping of a rejected step once it is under that many
+    difference steps."""
     class Stiff(LinearResiduals):
         """Residuals whose differences (the batch's poses after its first) are three times
         steeper than the fitness: each step goes a third of the way, and the gains shrink."""
@@ -352,6 +353,11 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
     early = gauss_newton_refine(creeping, x0, SPACE, config=GaussNewtonConfig(min_gain=0.05))
     assert early.stop_reason == "gauss-newton: converged" and early.iterations < full.iterations
     gains = np.diff(early.best_history)
+    assert gains[-1] < 0.05 and gains[-2] >= 0.05
+    two = gauss_newton_refine(creeping, x0, SPACE,
+                              config=GaussNewtonConfig(min_gain=0.05, min_gain_steps=2))
+    assert two.iterations == early.iterations + 1
+    gains = np.diff(two.best_history)
     assert np.all(gains[-2:] < 0.05) and gains[-3] >= 0.05
     fitness = LinearResiduals(TARGET)
     # At the peak every step is rejected: with min_step the damping ends at the first
@@ -364,6 +370,7 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
     gauss_newton_refine(fitness, TARGET, SPACE, config=replace(plain, min_step=0.0,
                                                                   rejected_damping=0.0))
     assert at_peak.stop_reason == "gauss-newton: no ascent step" and short < fitness.calls
-    for bad in ({"min_gain": -1.0}, {"min_step": -1.0}, {"rejected_damping": -1.0}):
+    for bad in ({"min_gain": -1.0}, {"min_step": -1.0}, {"rejected_damping": -1.0},
+                {"min_gain_steps": 0}):
         with pytest.raises(ValueError, match="min_gain"):
             GaussNewtonConfig(**bad)  # type: ignore[arg-type]

@@ -118,16 +118,21 @@ class GaussNewtonConfig:
     converged_steps : float
         Stop after an accepted step no larger than this many difference steps in any gene.
     min_gain : float
-        Also stop after two accepted steps in a row that each raised the fitness by less
-        than this (0: never). A tilted striped shirt's level-0 refinement ran its 40 steps
-        for 1e-5 a step: its tilt lay beyond the search box's bound, then measured from
-        camera 1 (``SearchSpace.from_ranges``' ``R_cam1_plane`` since), each step's tilt was
-        clipped and the other genes crept. 1e-5 against none, on 36 tilt, wood and paper
-        scenes: mean time 70 -> 65 ms a pair, the same successes and median errors; the grey
-        sock No.6 in 300 paper trials: the same means and std to 0.004 mm and 0.001 deg; 48
-        wrinkled, occluded and dim scenes unchanged. With the tilt bound from the table, on
-        72 tilt, wood and paper scenes: mean 109 -> 100 ms, median 66 -> 64 ms, the same
-        successes, poses within 0.07 mm.
+        Also stop after ``min_gain_steps`` accepted steps in a row that each raised the fitness by
+        less than this (0: never). A tilted striped shirt's level-0 refinement ran its 40 steps for
+        1e-5 a step: its tilt lay beyond the search box's bound, then measured from camera 1
+        (``SearchSpace.from_ranges``' ``R_cam1_plane`` since), each step's tilt was clipped and the
+        other genes crept. 1e-5 against none, on 36 tilt, wood and paper scenes: mean time 70 -> 65
+        ms a pair, the same successes and median errors; the grey sock No.6 in 300 paper trials: the
+        same means and std to 0.004 mm and 0.001 deg; 48 wrinkled, occluded and dim scenes
+        unchanged. With the tilt bound from the table, on 72 tilt, wood and paper scenes: mean 109
+        -> 100 ms, median 66 -> 64 ms, the same successes, poses within 0.07 mm.
+    min_gain_steps : int
+        The accepted steps in a row that must each gain less than ``min_gain`` to stop (2
+        before): a step that gains less than 1e-5 is followed by smaller ones (Gauss-Newton
+        converges quadratically near the peak; on levels 1 and 0 the gains fall as 1e-3,
+        1e-4, 1e-6, 1e-8), and each costs the normal equations and an evaluation. See
+        ``PyramidConfig.refine`` for the measurement.
     damping0 : float
         Start value of ``lambda``.
     max_damping : float
@@ -190,6 +195,7 @@ class GaussNewtonConfig:
     max_iterations: int = 40
     converged_steps: float = 2.5
     min_gain: float = 1e-5
+    min_gain_steps: int = 1
     damping0: float = 1e-3
     max_damping: float = 1e4
     rejected_damping: float = 0.25
@@ -207,8 +213,10 @@ class GaussNewtonConfig:
             raise ValueError("difference_steps: expected six positive steps")
         if self.max_iterations < 1 or not 0 < self.damping0 < self.max_damping:
             raise ValueError("expected max_iterations >= 1 and 0 < damping0 < max_damping")
-        if not (self.min_gain >= 0 and self.rejected_damping >= 0 and self.min_step >= 0):
-            raise ValueError("expected min_gain, rejected_damping and min_step >= 0")
+        if not (self.min_gain >= 0 and self.rejected_damping >= 0 and self.min_step >= 0
+                and self.min_gain_steps >= 1):
+            raise ValueError("expected min_gain, rejected_damping and min_step >= 0 and "
+                             "min_gain_steps >= 1")
         if self.jacobian not in ("analytic", "differences"):
             raise ValueError(f"jacobian: expected 'analytic' or 'differences', "
                              f"got {self.jacobian!r}")
@@ -341,7 +349,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         x, f = candidate, candidate_value
         offsets = fitness.last_offsets()
         history.append(f)
-        if np.all(np.abs(step) <= c.converged_steps * h) or small_gains >= 2:
+        if np.all(np.abs(step) <= c.converged_steps * h) or small_gains >= c.min_gain_steps:
             reason = "gauss-newton: converged"
             break
     trace = np.asarray(history)
