@@ -51,7 +51,6 @@ def _bilinear_slope(img, u, v, out, du, dv):  # pragma: no cover - compiled
     return True
 
 
-
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _sample_slope(M, t, K, D, x, y, img, out, du, dv, jac):  # pragma: no cover - compiled
     """``out`` = the sample of ``img`` where model point (x, y) lies under the map (M, t),
@@ -121,7 +120,11 @@ def _to_genes(dX, g9, m9, kron, cross9, gradient, metric, cross_o):  # pragma: n
     for z in range(9):
         for g in range(G):
             D[z, g] = dX[g, z // 3, z % 3]
-    half = full @ D
+    half = np.zeros((9, G))     # full D, summed in a fixed order (not BLAS: thread-free)
+    for z in range(9):
+        for zz in range(9):
+            for g in range(G):
+                half[z, g] += full[z, zz] * D[zz, g]
     for g in range(G):
         for z in range(9):
             gradient[g] += D[z, g] * g9[z]
