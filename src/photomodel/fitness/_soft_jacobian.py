@@ -72,6 +72,24 @@ def _add_outer(acc, a, x, y, f):  # pragma: no cover - compiled
         acc[3 * i] += s * x
         acc[3 * i + 1] += s * y
         acc[3 * i + 2] += s
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _add_gradient(g9, r, scale, du, dv, jac, x, y, w, a3):  # pragma: no cover - compiled
+    """``g9`` (9,) -= ``w J^T r`` of a sample whose residual ``r`` (3,) moves with its own
+    pixel only (slopes ``du``, ``dv``, projection Jacobian ``jac`` (2, 3), model point (x, y)):
+    row ``c`` of ``J`` is ``scale_c (du_c jac_u + dv_c jac_v) (x) (x, y, 1)``. ``a3`` (3,) is
+    work space."""
+    al0 = 0.0
+    al1 = 0.0
+    for c in range(3):
+        al0 += scale[c] * du[c] * r[c]
+        al1 += scale[c] * dv[c] * r[c]
+    for i in range(3):
+        a3[i] = al0 * jac[0, i] + al1 * jac[1, i]
+    _add_outer(g9, a3, x, y, -w)
+
+
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _mixture_slope(model_lin, gain, table, t, out, slope):  # pragma: no cover - compiled
     """``_edge_mixture`` into ``out``, and ``slope`` (3, 3) = d out / d table: log channel
@@ -190,15 +208,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             band_jac[j, 0, i] = jac[0, i]
             band_jac[j, 1, i] = jac[1, i]
         a = _agreement(r)
-        w = a * weights[n_in + j]
-        al0 = 0.0
-        al1 = 0.0
-        for c in range(3):
-            al0 += scale[c] * du[c] * r[c]
-            al1 += scale[c] * dv[c] * r[c]
-        for i in range(3):
-            a3[i] = al0 * jac[0, i] + al1 * jac[1, i]
-        _add_outer(g9, a3, p_out[j, 0], p_out[j, 1], -w)
+        _add_gradient(g9, r, scale, du, dv, jac, p_out[j, 0], p_out[j, 1],
+                      a * weights[n_in + j], a3)
         for c in range(3):
             slope_o[c] -= a * scale[c] * r[c] / n_out
     for j in range(n_in):
@@ -277,14 +288,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             for c in range(3):
                 slope_o[c] += a / n_in * scale[c] * r[c]
             w = a * weights[j]
-            al0 = 0.0
-            al1 = 0.0
-            for c in range(3):
-                al0 += scale[c] * du[c] * r[c]
-                al1 += scale[c] * dv[c] * r[c]
-            for i in range(3):
-                a3[i] = al0 * jac[0, i] + al1 * jac[1, i]
-            _add_outer(g9, a3, x, y, -w)
+            _add_gradient(g9, r, scale, du, dv, jac, x, y, w, a3)
             if inner:
                 # J row c = a_c (x) q, a_c = scale_c (du_c jac_u + dv_c jac_v): sum_c w J_c J_c^T
                 # = (w sum_c a_c a_c^T) (x) q q^T, summed by the factors' unique entries.
