@@ -351,14 +351,14 @@ def test_normal_equations_match_the_residuals_differences(garment: str, level: i
     g_diff, m_diff = _weighted_products(r, ok, fitness.residual_weights(), h, np.arange(9),
                                         np.zeros((0, 2)), rotation_from_eps(x[3:6]))
     free = np.ones(9, dtype=bool)
-    g, m = fitness.normal_equations(maps(x[None])[0], _map_derivatives(maps, x, free), offsets)
+    g, m = fitness.normal_equations(maps(x[None])[0], _map_derivatives(x, free), offsets)
     np.testing.assert_allclose(g, g_diff, atol=0.01 * np.abs(g_diff).max())
     scale = np.sqrt(np.outer(np.diag(m_diff), np.diag(m_diff)))
     assert np.abs((m - m_diff) / scale).max() < 0.03
     np.testing.assert_array_equal(m, m.T)
     # Fewer genes: the rows and columns of the free ones.
     free[[2, 7]] = False
-    g5, m5 = fitness.normal_equations(maps(x[None])[0], _map_derivatives(maps, x, free),
+    g5, m5 = fitness.normal_equations(maps(x[None])[0], _map_derivatives(x, free),
                                       offsets)
     np.testing.assert_allclose(g5, g[free], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(m5, m[np.ix_(free, free)], rtol=1e-9, atol=1e-12)
@@ -376,7 +376,7 @@ def test_the_full_gradient_follows_the_fitness_where_the_held_one_does_not(
     fitness, x, offsets = _strained_case(garment, condition, level, [0.3, -0.2, 0.8], 0.0005,
                                          [-0.003, 0.002, 0.001])
     maps = _strained_maps
-    dA = _map_derivatives(maps, x, np.ones(9, dtype=bool))
+    dA = _map_derivatives(x, np.ones(9, dtype=bool))
     held, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets)
     full, _ = fitness.normal_equations(maps(x[None])[0], dA, offsets, with_offsets=True)
     h = np.array([0.02, 0.02, 0.1, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4, 1e-4]) * 2.0**level

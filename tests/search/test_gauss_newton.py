@@ -338,24 +338,16 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
     """``min_gain`` ends a creep after ``min_gain_steps`` small gains in a row (one by
     default); ``min_step`` ends the damping of a rejected step once it is under that many
     difference steps."""
-    class Stiff(LinearResiduals):
-        """Residuals whose differences (the batch's poses after its first) are three times
-        steeper than the fitness: each step goes a third of the way, and the gains shrink."""
-
-        def residuals(self, T: np.ndarray, offsets: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray]:
-            r, ok = super().residuals(T, offsets)
-            return r[:1] + 3.0 * (r - r[:1]), ok
-
     creeping = Stiff(TARGET)
     x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
-    full = gauss_newton_refine(creeping, x0, SPACE, config=GaussNewtonConfig(min_gain=0.0))
-    early = gauss_newton_refine(creeping, x0, SPACE, config=GaussNewtonConfig(min_gain=0.05))
+    base = GaussNewtonConfig(extrapolation=1.0)     # the stop rules alone
+    full = gauss_newton_refine(creeping, x0, SPACE, config=replace(base, min_gain=0.0))
+    early = gauss_newton_refine(creeping, x0, SPACE, config=replace(base, min_gain=0.05))
     assert early.stop_reason == "gauss-newton: converged" and early.iterations < full.iterations
     gains = np.diff(early.best_history)
     assert gains[-1] < 0.05 and gains[-2] >= 0.05
     two = gauss_newton_refine(creeping, x0, SPACE,
-                              config=GaussNewtonConfig(min_gain=0.05, min_gain_steps=2))
+                              config=replace(base, min_gain=0.05, min_gain_steps=2))
     assert two.iterations == early.iterations + 1
     gains = np.diff(two.best_history)
     assert np.all(gains[-2:] < 0.05) and gains[-3] >= 0.05
@@ -374,3 +366,75 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
                 {"min_gain_steps": 0}):
         with pytest.raises(ValueError, match="min_gain"):
             GaussNewtonConfig(**bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="extrapolation"):
+        GaussNewtonConfig(extrapolation=0.5)
+
+
+class Stiff(LinearResiduals):
+    """Residuals whose differences (the batch's poses after its first) are three times
+    steeper than the fitness: each Gauss-Newton step goes a third of the way."""
+
+    def residuals(self, T: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r, ok = super().residuals(T, offsets)
+        return r[:1] + 3.0 * (r - r[:1]), ok
+
+
+class SteepMetric(LinearResiduals):
+    """Normal equations with the exact gradient and three times the residuals' metric (as
+    the ``soft`` fitness's inner-point metric is steeper than its curvature): each
+    Gauss-Newton step goes a third of the way."""
+
+    def normal_equations(self, A: np.ndarray, dA: np.ndarray, offsets: np.ndarray,
+                         with_offsets: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        r = self._r(_genes(A[None]))[0]
+        a = np.exp(-0.5 * np.sum(r**2, axis=-1)) / len(r)
+        gradient = -np.einsum("n,nij,ni->j", a, self.B, r)
+        return gradient, 3.0 * np.einsum("n,nij,nik->jk", a, self.B, self.B)
+
+
+def test_an_accepted_step_that_falls_short_is_taken_further() -> None:
+    """Where the metric is steeper than the fitness the steps fall short; the parabola
+    through the start, the slope and the accepted step's value takes them on to its peak
+    (at most ``extrapolation`` steps), and the refinement needs fewer of them."""
+    from photomodel.search import NormalEquationsFitness
+    from photomodel.search._gauss_newton import _extrapolation
+
+    # f(a) = a - c a^2 / 2 along the step: peak at 1 / c steps.
+    for c, most, expected in ((0.25, 4.0, 4.0), (0.25, 3.0, 3.0), (0.5, 4.0, 2.0),
+                              (1.0, 4.0, 1.0), (0.25, 1.0, 1.0)):
+        assert _extrapolation(0.0, 1.0 - 0.5 * c, 1.0, most) == pytest.approx(expected)
+    assert _extrapolation(0.0, 1.5, 1.0, 4.0) == 1.0      # convex along the step
+    assert _extrapolation(0.0, 0.1, -1.0, 4.0) == 1.0     # no ascent at the start
+    x0 = TARGET + np.array([0.6, -0.4, 2.0, 0.0008, -0.0005, 0.0006])
+    runs = {}
+    for most in (1.0, 4.0):
+        fitness = SteepMetric(TARGET)
+        assert isinstance(fitness, NormalEquationsFitness)
+        runs[most] = gauss_newton_refine(fitness, x0, SPACE, config=GaussNewtonConfig(
+            min_gain=0.0, extrapolation=most))
+        # One normal-equations pose per accepted step, every fitness call counted.
+        assert runs[most].evaluations == fitness.calls + runs[most].iterations
+    # A third of the way a step: the short steps end under converged_steps, short of the peak.
+    np.testing.assert_allclose(runs[4.0].x[:3], TARGET[:3], atol=0.02)
+    assert np.abs(runs[1.0].x[:3] - TARGET[:3]).max() > 0.1
+    assert runs[4.0].fitness > runs[1.0].fitness
+
+
+@pytest.mark.parametrize("strained", [False, True])
+def test_the_maps_closed_form_derivatives_match_central_differences(strained: bool) -> None:
+    from photomodel.search._gauss_newton import _map_derivatives
+
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        x = np.concatenate([rng.normal(0, 50, 3) + [0, 0, 700], rng.normal(0, 0.2, 3),
+                            rng.normal(0, 0.03, 3 if strained else 0)])
+        free = rng.random(len(x)) > 0.3
+        genes = np.flatnonzero(free)
+        h = 1e-6
+        poses = np.repeat(x[None], 2 * len(genes), axis=0)
+        poses[np.arange(len(genes)), genes] += h
+        poses[len(genes) + np.arange(len(genes)), genes] -= h
+        T = (strained_matrices(poses[:, :6], poses[:, 6:]) if strained
+             else pose_vectors_to_matrices(poses))
+        central = (T[:len(genes)] - T[len(genes):]) / (2 * h)
+        np.testing.assert_allclose(_map_derivatives(x, free), central, atol=1e-8)

@@ -279,17 +279,19 @@ class SoftFitness:
         metric : ndarray (G, G)
             ``sum w_j J_j^T J_j`` over the inner samples.
         """
-        from photomodel.fitness._soft_jacobian import soft_normal_kernel
+        from photomodel.fitness._soft_jacobian import (
+            camera_frames,
+            full_gradient,
+            soft_normal_kernel,
+        )
 
         if self.palette_weight > 0:
             raise ValueError("normal_equations: defined for the own colours only "
                              "(palette_weight 0)")
-        A = np.asarray(A_cam1_model, dtype=np.float64)
-        dA = np.asarray(dA, dtype=np.float64)
         rig, s = self.features.rig, self.samples
-        Ms, ts = self._camera_maps(A)
-        dX = dA[:, :3, [0, 1, 3]]     # per gene: the camera point's x, y and 1 coefficients
-        dXs = np.ascontiguousarray(np.stack([dX, np.einsum("ij,gjk->gik", rig.R, dX)]))
+        dA = np.asarray(dA, dtype=np.float64)
+        Ms, ts, dXs = camera_frames(np.asarray(A_cam1_model, dtype=np.float64), dA, rig.R,
+                                    rig.T)
         G = len(dA)
         gradient = np.zeros((2, G))
         metric = np.zeros((2, G, G))
@@ -305,12 +307,7 @@ class SoftFitness:
                            self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
                            self._half_weights, wb_weight, gradient, metric, hess_o,
                            cross_o, slope_o)
-        total = gradient[0] + gradient[1]
-        if with_offsets:
-            usable = np.linalg.cond(hess_o) < 1e12     # both cameras in one call
-            if usable.any():
-                moved = -np.linalg.solve(hess_o[usable], cross_o[usable])  # d offsets / d genes
-                total = total + 0.5 * np.einsum("ci,cig->g", slope_o[usable], moved)
+        total = full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets)
         return total, metric[0] + metric[1]
 
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
