@@ -275,6 +275,25 @@ def test_edge_mix_takes_the_depth_bias_off_a_dark_garment() -> None:
     assert peaks[False] >= 3.0 and abs(peaks[True]) <= 1.0, peaks
 
 
+def test_a_negligible_edge_mix_is_left_out() -> None:
+    """The coarse levels' rings lie far inside the blur: a mixed fraction below
+    ``min_edge_mix`` counts as none, and the fitness is the same to the rounding."""
+    model, rig, right, left, T_true, _ = _case("No.2")
+    poses = _vector(T_true)[None] + np.array([[0.0] * 6, [2.0, -1.0, 4.0, 0.0, 0.0, 0.002]])
+    fractions, values = {}, {}
+    for least in (0.0, 1e-3):
+        features = StereoFeatures(rig, right, left, match=SoftMatch(min_edge_mix=least))
+        for level in (0, 3):
+            fitness = SoftFitness(model, features, level)
+            fractions[least, level] = fitness.edge_mix_fraction
+            values[least, level] = fitness(poses)
+    assert fractions[1e-3, 0] == fractions[0.0, 0] > 0.05
+    assert 0.0 < fractions[0.0, 3] < 1e-12 and fractions[1e-3, 3] == 0.0
+    np.testing.assert_allclose(values[1e-3, 3], values[0.0, 3], atol=1e-12)
+    with pytest.raises(ValueError, match="tolerances"):
+        SoftMatch(min_edge_mix=-1.0)
+
+
 def test_linear_intensity_inverts_log_opponent() -> None:
     bgr = np.random.default_rng(0).integers(0, 256, (7, 5, 3), dtype=np.uint8)
     np.testing.assert_allclose(linear_intensity(log_opponent(bgr)), bgr + 8.0, rtol=1e-5)
