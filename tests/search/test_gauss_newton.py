@@ -351,6 +351,14 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
     assert two.iterations == early.iterations + 1
     gains = np.diff(two.best_history)
     assert np.all(gains[-2:] < 0.05) and gains[-3] >= 0.05
+    # Level 1 stops at ten times the gain (min_gain_per_level), level 0 refines after it.
+    coarse = gauss_newton_refine(creeping, x0, SPACE, level=1,
+                                 config=replace(base, min_gain=0.005))
+    gains = np.diff(coarse.best_history)
+    assert gains[-1] < 0.05 and gains[-2] >= 0.05
+    flat = gauss_newton_refine(creeping, x0, SPACE, level=1,
+                               config=replace(base, min_gain=0.005, min_gain_per_level=1.0))
+    assert flat.iterations > coarse.iterations
     fitness = LinearResiduals(TARGET)
     # At the peak every step is rejected: with min_step the damping ends at the first
     # rejected step under it, without it only at max_damping.
@@ -363,7 +371,7 @@ def test_gauss_newton_stops_on_small_gains_and_short_rejected_steps() -> None:
                                                                   rejected_damping=0.0))
     assert at_peak.stop_reason == "gauss-newton: no ascent step" and short < fitness.calls
     for bad in ({"min_gain": -1.0}, {"min_step": -1.0}, {"rejected_damping": -1.0},
-                {"min_gain_steps": 0}):
+                {"min_gain_steps": 0}, {"min_gain_per_level": 0.5}):
         with pytest.raises(ValueError, match="min_gain"):
             GaussNewtonConfig(**bad)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="extrapolation"):
