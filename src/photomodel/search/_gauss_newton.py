@@ -199,9 +199,10 @@ class GaussNewtonConfig:
         the fitness (the Welsch weights' curvature ``a (1 - r^2)`` is below the metric's
         ``a``, and the band's negative weights are left out), so the steps fall short and
         the gains shrink by only 2-3 a step: on 72 paper, wood, tilt, wrinkled, dim and
-        gripper scenes, 3/4 of the tries were kept and the normal equations fell from 22.6 to
-        16.1 a scene (192 scenes of 16 conditions: 18.2 -> 14.7, the same 192 successes,
-        per-scene time 0.99, ratio of medians 0.97).
+        gripper scenes the normal equations fell from 22.6 to 16.1 a scene (3/4 of the tries
+        kept on 72 paper, cool-light, tilt, wood, wrinkled and dim scenes); on 192 scenes of
+        16 conditions 18.2 -> 14.7, the same 192 successes, per-scene time 0.99, ratio of
+        medians 0.97.
     """
 
     def strain_prior(self) -> NDArray[np.float64]:
