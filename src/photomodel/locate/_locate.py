@@ -264,8 +264,8 @@ nowhere), it is relit as level 3's is (``relight``: the scene colours' two likel
 offsets, :func:`~photomodel.fitness.relight_scan`) before level 3 is scanned: dim and
 warm-light scenes scanned four times (level 4, level 3 and level 3 relit twice) and now
 mostly twice. 96 dim, warm-light, bright and cool-light scenes (trials 1-2), each both ways in
-turn: 96/96 either way, per-scene median time 108 -> 72 ms (dim) and 111 -> 81 ms (warm
-light), bright and cool light the same."""
+turn: 96/96 either way, the same fitness, per-scene median time 81 -> 49 ms (dim) and 92 ->
+56 ms (warm light), bright and cool light the same."""
 
 COARSE_MIN_SCORE = 0.6
 """The score from which the search from :data:`COARSE_SCAN`'s peaks ends the work (or the
