@@ -27,13 +27,14 @@ SETTINGS = settings(max_examples=200, deadline=None)
 
 @st.composite
 def quats_wxyz(draw: st.DrawFn, min_w: float = 0.0) -> np.ndarray:
-    """Unit quaternions (4,) in (w, x, y, z) order with w >= min_w."""
-    q = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(4)])
-    n = np.linalg.norm(q)
+    """Unit quaternions (4,) in (w, x, y, z) order with w >= min_w: an axis and an angle up to
+    ``2 arccos(min_w)`` (drawing four components and keeping those with w >= 0.9 filtered out
+    so many that Hypothesis's health check failed now and then)."""
+    axis = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(3)])
+    n = np.linalg.norm(axis)
     assume(n > 0.1)
-    q = q / n
-    if q[0] < 0:
-        q = -q
+    half = 0.5 * draw(st.floats(0.0, 2.0 * float(np.arccos(min_w))))
+    q = np.concatenate([[np.cos(half)], np.sin(half) * axis / n])
     assume(q[0] >= min_w)
     return q
 
