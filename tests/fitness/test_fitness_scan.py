@@ -379,7 +379,8 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     maps = np.zeros((2, 6, 7), dtype=np.float32)
     maps[0, 1, 2], maps[0, 4, 5], maps[0, 4, 4] = 0.5, 0.9, 0.3   # (4, 4) sits beside a higher
     maps[1, 3, 3] = -0.2                                         # a map without positive peaks
-    angle, row, col, value = _scan._local_maxima(maps, per_map=4)
+    found = _scan._top_maxima(maps[None], np.array([[6, 7]]), 4)
+    angle, row, col, value = _scan._maxima_rows(found[0])
     assert angle.tolist() == [0, 0] and row.tolist() == [4, 1] and col.tolist() == [5, 2]
     np.testing.assert_allclose(value, [0.9, 0.5])
 

@@ -537,21 +537,12 @@ def _weighted_sums(spectra, kernels):  # pragma: no cover - compiled
     return out
 
 
-def _local_maxima(f: NDArray[np.float32], per_map: int = _PER_MAP
-                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
-                             NDArray[np.float64]]:
-    """Up to ``per_map`` highest positive 3 x 3 local maxima of each map of ``f`` (A, H, W),
-    the edge repeated beyond the border: their maps, rows, columns and values, map by map,
-    best first in each."""
-    sizes = np.array([f.shape[1:]], dtype=np.intp)
-    return _maxima_rows(_top_maxima(np.ascontiguousarray(f)[None], sizes, per_map)[0])
-
-
 def _maxima_rows(found: NDArray[np.float64]
                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
                             NDArray[np.float64]]:
-    """The positive rows of one depth's :func:`_top_maxima` (A, per_map, 3): their maps,
-    rows, columns and values."""
+    """The positive rows of one depth's :func:`_top_maxima` (A, per_map, 3): the up to
+    ``per_map`` highest positive 3 x 3 local maxima of each map, map by map, best first in
+    each: their maps, rows, columns and values."""
     per_map = found.shape[1]
     rows = found.reshape(-1, 3)
     keep = rows[:, 2] > 0

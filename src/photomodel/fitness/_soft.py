@@ -241,15 +241,6 @@ class SoftFitness:
         n_in, n_out = len(self.samples.p_in), len(self.samples.p_out)
         return np.concatenate([np.full(n_in, 1.0 / n_in), np.full(n_out, -1.0 / max(n_out, 1))])
 
-    def _camera_maps(self, A_cam1_model: NDArray[np.float64]
-                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The linear parts (2, 3, 3) and translations (2, 3) of the map (4, 4) of model
-        points into camera 1, and of its continuation into camera 2."""
-        R, T = self.features.rig.R, self.features.rig.T
-        A = A_cam1_model
-        return (np.ascontiguousarray(np.stack([A[:3, :3], R @ A[:3, :3]])),
-                np.ascontiguousarray(np.stack([A[:3, 3], R @ A[:3, 3] + T])))
-
     def residual_points(self) -> NDArray[np.float64]:
         """Model-frame points (N_in + N_out, 3), mm, of the residuals' samples, in their
         order (inner points first)."""
@@ -375,12 +366,14 @@ class SoftFitness:
             :attr:`~photomodel.fitness.ModelSamples.table_out`; 0 unless both are inside;
             a pair counts in its inner point's cell). Own colours only (no palette).
         """
+        from photomodel.fitness._soft_jacobian import camera_frames
         from photomodel.fitness._soft_kernels import soft_slack_sums_kernel
 
         if self.palette_weight > 0:
             raise ValueError("slack_sums: defined for the own colours only (palette_weight 0)")
         rig, s = self.features.rig, self.samples
-        Ms, ts = self._camera_maps(np.asarray(A_cam1_model, dtype=np.float64).reshape(4, 4))
+        A = np.asarray(A_cam1_model, dtype=np.float64).reshape(4, 4)
+        Ms, ts, _ = camera_frames(A, np.zeros((0, 4, 4)), rig.R, rig.T)
         shifts = np.ascontiguousarray(np.asarray(shifts_mm, dtype=np.float64).reshape(-1, 2))
         out = np.empty((len(shifts), 2, 3, cells))
         pairs = (s.table_out if s.table_out is not None

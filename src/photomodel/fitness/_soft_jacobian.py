@@ -367,8 +367,9 @@ def camera_frames(A, dA, R, T):  # pragma: no cover - compiled
     :func:`soft_normal_kernel` takes them: ``Ms`` (2, 3, 3) and ``ts`` (2, 3), the linear
     part and translation of ``A`` (4, 4) (camera 1) and of ``R A + T`` (camera 2), and
     ``dXs`` (2, G, 3, 3), each gene's derivative ``dA`` (G, 4, 4) of the camera point, by
-    coefficient of the model point's x, y and 1. One call, where numpy's slicing, stacking
-    and products took 20-40 us an iteration of Gauss-Newton."""
+    coefficient of the model point's x, y and 1 (``G`` may be 0: the maps alone, as
+    ``SoftFitness.slack_sums`` takes them). One call, where numpy's slicing, stacking and
+    products took 20-40 us an iteration of Gauss-Newton."""
     G = dA.shape[0]
     Ms = np.empty((2, 3, 3))
     ts = np.empty((2, 3))
