@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numba
 import numpy as np
@@ -202,6 +203,12 @@ class SoftFitness:
         self._lin_in = self.samples.lin_in
         self._half_weights = self.residual_weights() / 2.0    # each camera's half
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
+        rig, s = features.rig, self.samples
+        self._kernel_args = (
+            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2, rig.cam2.distortion12,
+            s.p_in, s.f_in, s.p_out, s.f_out, self.palette, self.palette_weight,
+            features.pyramids[0][level], features.pyramids[1][level], *self._args,
+            self._table_out, self.edge_mix_fraction, self._lin_in)
 
     def score(self, fitness: float) -> float:
         """The fitness clipped to [0, 1] (it is already normalised)."""
@@ -213,22 +220,20 @@ class SoftFitness:
 
     def evaluate_transforms(self, T_cam1_model: NDArray[np.float64]) -> NDArray[np.float64]:
         """Fitness (P,) of transforms (P, 4, 4); per-camera terms kept in ``last_terms``."""
-        from photomodel.fitness._soft_kernels import soft_fitness_kernel
+        from photomodel.fitness._soft_kernels import soft_fitness_terms
 
-        T = np.ascontiguousarray(np.asarray(T_cam1_model, dtype=np.float64).reshape(-1, 4, 4))
-        rig, s = self.features.rig, self.samples
-        img1 = self.features.pyramids[0][self.level]
-        img2 = self.features.pyramids[1][self.level]
-        f = np.empty(len(T))
-        terms = np.empty((len(T), 2, 6))
-        soft_fitness_kernel(np.ascontiguousarray(T[:, :3, :3]), np.ascontiguousarray(T[:, :3, 3]),
-                            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
-                            rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
-                            self.palette, self.palette_weight, img1, img2, *self._args,
-                            self._table_out, self.edge_mix_fraction, self._lin_in,
-                            numba.get_num_threads(), f, terms)
-        self.last_terms = terms
+        T = np.asarray(T_cam1_model, dtype=np.float64).reshape(-1, 4, 4)
+        f, self.last_terms = soft_fitness_terms(T, numba.get_num_threads(), self._kernel_args)
         return f
+
+    def pose_kernel(self) -> tuple[Any, tuple[Any, ...]]:
+        """The numba function ``values(T, lanes, args)`` that gives this fitness (P,) of maps
+        ``T`` (P, 4, 4) of model points into camera 1 on ``lanes`` threads, and its ``args``:
+        what the searches' numba loops call instead of :meth:`evaluate_transforms`
+        (:class:`~photomodel.search.KernelFitness`)."""
+        from photomodel.fitness._soft_kernels import soft_fitness_values
+
+        return soft_fitness_values, self._kernel_args
 
     def last_offsets(self) -> NDArray[np.float64]:
         """Light offsets (2, 3), (o_l, o_a, o_b) of each camera, that the last call found for

@@ -291,6 +291,34 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
 
 
+@njit(cache=True, error_model="numpy")
+def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
+    """:func:`soft_fitness_kernel` of the maps ``T`` (P, 4, 4) of model points into camera 1
+    (their first two columns, and the translation) on ``lanes`` threads: the fitness (P,) and
+    each camera's terms (P, 2, 6). ``args`` holds the kernel's arguments from ``R21`` to
+    ``lin_in`` (``SoftFitness.pose_kernel``). Called from Python and from the searches'
+    numba loops alike (``numba.get_num_threads()`` inside would keep it from the cache)."""
+    P = T.shape[0]
+    Rs = np.empty((P, 3, 3))
+    ts = np.empty((P, 3))
+    for p in range(P):
+        for i in range(3):
+            ts[p, i] = T[p, i, 3]
+            for j in range(3):
+                Rs[p, i, j] = T[p, i, j]
+    f = np.empty(P)
+    terms = np.empty((P, 2, 6))
+    soft_fitness_kernel(Rs, ts, *args, lanes, f, terms)
+    return f, terms
+
+
+@njit(cache=True, error_model="numpy")
+def soft_fitness_values(T, lanes, args):  # pragma: no cover - compiled
+    """The fitness (P,) of :func:`soft_fitness_terms`: the pose kernel the searches' numba
+    loops call (``SoftFitness.pose_kernel``)."""
+    return soft_fitness_terms(T, lanes, args)[0]
+
+
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c, table_out,
                       mix_t, lin_in, o, band, out_r, out_ok):  # pragma: no cover - compiled

@@ -2,9 +2,11 @@
 
 from photomodel.geometry._pose import (
     eps_from_rotation,
+    facing_kernel,
     facing_pose_vectors,
     flat_pose_vectors,
     in_plane_angle_rad,
+    pose_maps_kernel,
     pose_vectors_to_matrices,
     quat_wxyz_from_matrix,
     rotation_from_eps,
@@ -14,11 +16,13 @@ from photomodel.geometry._transforms import invert_transform, make_transform, tr
 
 __all__ = [
     "eps_from_rotation",
+    "facing_kernel",
     "facing_pose_vectors",
     "flat_pose_vectors",
     "in_plane_angle_rad",
     "invert_transform",
     "make_transform",
+    "pose_maps_kernel",
     "pose_vectors_to_matrices",
     "quat_wxyz_from_matrix",
     "rotation_from_eps",

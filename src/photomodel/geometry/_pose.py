@@ -158,6 +158,16 @@ def _facing(f: NDArray[np.float64], w0: float, a: float, b: float, c: float
     return out
 
 
+pose_maps_kernel = _maps
+"""The numba function behind :func:`pose_vectors_to_matrices` and :func:`strained_matrices`:
+``pose_maps_kernel(p, e)`` of pose vectors ``p`` (N, 6) and strains ``e`` (1, 3) or (N, 3),
+for numba loops that call it directly (no checks)."""
+
+facing_kernel = _facing
+"""The numba function behind :func:`facing_pose_vectors`: ``facing_kernel(f, w, x, y, z)`` of
+flat pose vectors ``f`` (N, 6) and the plane's ``quat_wxyz``, for numba loops (no checks)."""
+
+
 def flat_pose_vectors(poses: ArrayLike, R_cam1_facing: ArrayLike) -> NDArray[np.float64]:
     """Flat pose vectors (N, 6) ``(x, y, z, 0, 0, sin(theta / 2))`` of pose vectors (N, 6):
     ``theta`` is the in-plane angle about the normal of the plane of orientation

@@ -15,6 +15,7 @@ from photomodel.search._gauss_newton import (
     ResidualFitness,
     gauss_newton_refine,
 )
+from photomodel.search._kernel_loops import KernelFitness
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._pyramid import PyramidConfig, PyramidResult, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
@@ -37,6 +38,7 @@ __all__ = [
     "GAConfig",
     "GaussNewtonConfig",
     "GlobalThenLocal",
+    "KernelFitness",
     "LocalCMA",
     "LocalCMAConfig",
     "LocalRefine",

@@ -64,6 +64,7 @@ from photomodel.search._gauss_newton import (
     gauss_newton_refine,
     out_of_iterations,
 )
+from photomodel.search._kernel_loops import KernelFitness, OnPlane, refine_kernel
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._refine import LocalRefine, RefineConfig
 from photomodel.search._space import SearchSpace
@@ -319,9 +320,8 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     def on_plane(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return space.clip(facing_pose_vectors(x, q_facing))
 
-    def flat_fitness(level: int, palette_weight: float) -> Fitness:
-        objective = fitness_at(level, palette_weight, blur)
-        return lambda x: objective(on_plane(x))
+    def flat_fitness(level: int, palette_weight: float) -> OnPlane:
+        return OnPlane(fitness_at(level, palette_weight, blur), space, facing)
 
     if c.ga_with_seeds or not starts:
         ga = BinaryGA(flat, c.ga, rng=gen)
@@ -517,9 +517,14 @@ def _climb(value: Callable[[float], float], grid: list[float], start: int
 def _refine_at(objective: Fitness, level: int, x: NDArray[np.float64], space: SearchSpace,
                refine: RefineConfig, gen: np.random.Generator) -> SearchResult:
     """:class:`LocalRefine` of ``objective`` (pyramid ``level``) from ``x``, steps scaled by
-    2**level."""
+    2**level; in one numba loop (:func:`refine_kernel`) where the fitness gives its
+    kernel."""
+    config = refine.scaled(2.0**level)
+    fitness = objective.objective if isinstance(objective, OnPlane) else objective
+    if isinstance(fitness, KernelFitness):
+        return refine_kernel(objective, space, x, config, gen)
     f0 = float(objective(x[None])[0])
-    return run_search(LocalRefine(space, x, f0, refine.scaled(2.0**level), gen), objective)
+    return run_search(LocalRefine(space, x, f0, config, gen), objective)
 
 
 def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],

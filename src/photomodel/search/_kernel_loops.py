@@ -1,0 +1,158 @@
+"""The local searches' loops in numba, for a fitness that gives its numba kernel.
+
+:class:`~photomodel.search.LocalRefine` behind ask/tell costs some 50 us of Python an
+iteration (drawing, ray coordinates, clipping, pose maps, the fitness's wrapper, the
+tracker) where a coarse level's kernel costs 30-150 us: on the typical stereo pair the
+evolution strategies of levels 3 and 2 spent 2.5 of their 6.8 ms outside the kernel. A
+fitness that gives a numba function of pose maps (:class:`KernelFitness`, the ``soft``
+fitness) is searched here by the same strategy in one compiled loop that calls that function
+directly: the same draws from the caller's generator in the same order, the same arithmetic,
+the same result to the bit (``tests/search/test_search_kernel_loops.py``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol, runtime_checkable
+
+import numba
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from photomodel.geometry import (
+    facing_kernel,
+    facing_pose_vectors,
+    pose_maps_kernel,
+    quat_wxyz_from_matrix,
+)
+from photomodel.search._base import SearchResult
+from photomodel.search._refine import RefineConfig
+from photomodel.search._space import SearchSpace
+
+__all__ = ["KernelFitness", "OnPlane", "refine_kernel"]
+
+
+@runtime_checkable
+class KernelFitness(Protocol):
+    """A fitness that also gives the numba function it evaluates (``SoftFitness``)."""
+
+    def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+    def pose_kernel(self) -> tuple[Callable[..., NDArray[np.float64]], tuple[Any, ...]]:
+        """``(values, args)``: ``values(T, lanes, args)`` is the fitness (P,) of maps ``T``
+        (P, 4, 4) of model points into camera 1 on ``lanes`` threads, a numba function."""
+        ...
+
+
+class OnPlane:
+    """``objective`` of pose vectors laid on the plane ``R_cam1_facing``: the search's
+    *flat* pose vectors ``(x, y, z, -, -, sin(theta / 2))`` become
+    :func:`~photomodel.geometry.facing_pose_vectors`, clipped into ``space``."""
+
+    def __init__(self, objective: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                 space: SearchSpace, R_cam1_facing: NDArray[np.float64]) -> None:
+        self.objective = objective
+        self.space = space
+        self.q_facing = quat_wxyz_from_matrix(R_cam1_facing)
+
+    def poses(self, flat: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Pose vectors (N, 6) of flat pose vectors (N, 6)."""
+        return self.space.clip(facing_pose_vectors(flat, self.q_facing))
+
+    def __call__(self, flat: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self.objective(self.poses(flat))
+
+
+def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,
+                  x0: NDArray[np.float64], config: RefineConfig,
+                  rng: np.random.Generator) -> SearchResult:
+    """:class:`~photomodel.search.LocalRefine` of ``objective`` from ``x0`` in ``space``,
+    run to its stop in one numba loop: the result of ``run_search(LocalRefine(space, x0,
+    objective(x0), config, rng), objective)``, with ``rng`` left where that leaves it.
+
+    ``objective`` is a :class:`KernelFitness`, or an :class:`OnPlane` of one (``space``
+    then holds flat pose vectors).
+    """
+    plane = objective if isinstance(objective, OnPlane) else None
+    fitness = objective.objective if plane is not None else objective
+    if not isinstance(fitness, KernelFitness):
+        raise TypeError("refine_kernel: expected a KernelFitness or an OnPlane of one")
+    values, args = fitness.pose_kernel()
+    c = config
+    state = rng.bit_generator.state
+    normals = rng.standard_normal((c.max_iterations, c.population, 6))
+    q = plane.q_facing if plane is not None else np.array([1.0, 0.0, 0.0, 0.0])
+    box = plane.space if plane is not None else space
+    x, f, iterations, converged, best, mean = _refine_loop(
+        values, numba.get_num_threads(), args, np.asarray(x0, dtype=np.float64).reshape(6),
+        c.steps, normals, space.lower, space.upper, c.grow, c.shrink, c.min_step_fraction,
+        c.max_iterations, plane is not None, q, box.lower, box.upper)
+    rng.bit_generator.state = state     # the draws used, as LocalRefine draws them
+    rng.standard_normal((iterations, c.population, 6))
+    reason = ("refined (steps converged)" if converged
+              else f"refine max_iterations ({c.max_iterations})")
+    return SearchResult(x, float(f), iterations * c.population, iterations, reason, best, mean)
+
+
+@njit(cache=True, error_model="numpy")
+def _plane_maps(X, on_plane, q, lower, upper):  # pragma: no cover - compiled
+    """The maps (P, 4, 4) of pose vectors ``X`` (P, 6), laid on the plane of quaternion ``q``
+    and clipped into (``lower``, ``upper``) first when ``on_plane``."""
+    if on_plane:
+        X = np.minimum(np.maximum(facing_kernel(X, q[0], q[1], q[2], q[3]), lower), upper)
+    return pose_maps_kernel(X, np.zeros((1, 3)))
+
+
+@njit(cache=True, error_model="numpy")
+def _refine_loop(values, lanes, args, x0, step0, normals, lower, upper, grow, shrink, min_fraction,
+                 max_iterations, on_plane, q, plane_lower,
+                 plane_upper):  # pragma: no cover - compiled
+    """:class:`LocalRefine`'s iterations with the draws ``normals`` (max_iterations, P, 6):
+    the best pose and fitness, the iterations, whether the steps converged, and the best and
+    mean fitness of each iteration."""
+    population = normals.shape[1]
+    f0 = values(_plane_maps(x0.reshape(1, 6).copy(), on_plane, q, plane_lower, plane_upper),
+                lanes, args)[0]
+    best_x = np.minimum(np.maximum(x0, lower), upper)
+    best_f = f0
+    step = step0.copy()
+    best = np.empty(max_iterations)
+    mean = np.empty(max_iterations)
+    it = 0
+    converged = False
+    X = np.empty((population, 6))
+    while True:
+        converged = True
+        for g in range(6):
+            if not step[g] < step0[g] * min_fraction:
+                converged = False
+        if converged or it >= max_iterations:
+            break
+        centre = best_x.copy()      # ray coordinates (x/z, y/z, z, eps)
+        centre[0] = best_x[0] / best_x[2]
+        centre[1] = best_x[1] / best_x[2]
+        for p in range(population):
+            for g in range(6):
+                X[p, g] = centre[g] + normals[it, p, g] * step[g]
+            X[p, 0] = X[p, 0] * X[p, 2]
+            X[p, 1] = X[p, 1] * X[p, 2]
+            for g in range(6):
+                X[p, g] = min(max(X[p, g], lower[g]), upper[g])
+        f = values(_plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper), lanes, args)
+        i = 0
+        total = 0.0
+        for p in range(population):
+            total += f[p]
+            if f[p] > f[i]:
+                i = p
+        improved = f[i] > best_f
+        if improved:
+            best_f = f[i]
+            best_x = X[i].copy()
+        best[it] = best_f
+        mean[it] = total / population
+        for g in range(6):
+            step[g] = min(step[g] * (grow if improved else shrink), step0[g] * 4)
+        it += 1
+    return best_x, best_f, it, converged, best[:it].copy(), mean[:it].copy()
