@@ -10,7 +10,17 @@ import pytest
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import SoftFitness, StereoFeatures
 from photomodel.geometry import eps_from_rotation, flat_pose_vectors
-from photomodel.search import KernelFitness, LocalRefine, RefineConfig, SearchSpace, run_search
+from photomodel.search import (
+    GaussNewtonConfig,
+    KernelFitness,
+    KernelNormalEquations,
+    LocalRefine,
+    RefineConfig,
+    SearchSpace,
+    gauss_newton_refine,
+    run_search,
+)
+from photomodel.search._gauss_newton import NO_ASCENT
 from photomodel.search._kernel_loops import OnPlane, refine_kernel
 
 
@@ -23,6 +33,12 @@ def _scene() -> tuple[SoftFitness, SoftFitness, np.ndarray, SearchSpace]:
     truth = np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
     space = SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
     return SoftFitness(model, features, 2), SoftFitness(model, features, 3), truth, space
+
+
+@lru_cache(maxsize=2)
+def _level(level: int) -> SoftFitness:
+    fitness = _scene()[0]
+    return SoftFitness(fitness.model, fitness.features, level)
 
 
 def _flat_space(space: SearchSpace) -> SearchSpace:
@@ -70,3 +86,75 @@ def test_refine_kernel_needs_a_fitness_with_a_kernel() -> None:
     with pytest.raises(TypeError, match="KernelFitness"):
         refine_kernel(lambda x: np.zeros(len(x)), space, truth, RefineConfig(),  # type: ignore[arg-type]
                       np.random.default_rng(0))
+
+
+class _PythonOnly:
+    """``fitness`` without its numba kernels: Gauss-Newton takes its Python loop."""
+
+    def __init__(self, fitness: SoftFitness) -> None:
+        self.f = fitness
+
+    def __call__(self, poses: np.ndarray) -> np.ndarray:
+        return self.f(poses)
+
+    def evaluate_transforms(self, T: np.ndarray) -> np.ndarray:
+        return self.f.evaluate_transforms(T)
+
+    def last_offsets(self) -> np.ndarray:
+        return self.f.last_offsets()
+
+    def residuals(self, T: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.f.residuals(T, offsets)
+
+    def residual_weights(self) -> np.ndarray:
+        return self.f.residual_weights()
+
+    def residual_points(self) -> np.ndarray:
+        return self.f.residual_points()
+
+    def normal_equations(self, A: np.ndarray, dA: np.ndarray, offsets: np.ndarray,
+                         with_offsets: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        return self.f.normal_equations(A, dA, offsets, with_offsets)
+
+
+@pytest.mark.parametrize(("level", "strain", "free"), [
+    (1, None, None), (0, (0.01, -0.02, 0.005), None),
+    (0, (0.0, 0.0, 0.0), (True, True, True, False, False, True))])
+def test_the_numba_gauss_newton_repeats_the_python_loop(level: int, strain: tuple | None,
+                                                        free: tuple | None) -> None:
+    _, _, truth, space = _scene()
+    fitness = _level(level)
+    assert isinstance(fitness, KernelNormalEquations)
+    assert not isinstance(_PythonOnly(fitness), KernelFitness)
+    x0 = truth + np.array([0.8, -0.6, 2.0, 0.002, -0.002, 0.001]) * 2.0**level
+    mask = None if free is None else np.array(free)
+    got = gauss_newton_refine(fitness, x0, space, level, free=mask, strain=strain)
+    expected = gauss_newton_refine(_PythonOnly(fitness), x0, space, level, free=mask,
+                                   strain=strain)
+    assert got.fitness == expected.fitness and got.iterations >= 2
+    np.testing.assert_array_equal(got.x, expected.x)
+    assert (got.iterations, got.evaluations, got.stop_reason) == (
+        expected.iterations, expected.evaluations, expected.stop_reason)
+    np.testing.assert_array_equal(got.best_history, expected.best_history)
+    if strain is None:
+        assert got.strain is None and expected.strain is None
+    else:
+        np.testing.assert_array_equal(got.strain, expected.strain)
+    if mask is not None:
+        np.testing.assert_array_equal(got.x[~mask], np.clip(x0, space.lower, space.upper)[~mask])
+
+
+def test_the_numba_gauss_newton_takes_the_fitness_own_differences_on_a_stall() -> None:
+    """Started at the Python loop's end, neither accepts a step along the analytic gradient
+    alone; both then difference the fitness itself and stop where the other stops."""
+    _, _, truth, space = _scene()
+    fitness = _level(1)
+    start = gauss_newton_refine(_PythonOnly(fitness), truth, space, 1, strain=(0, 0, 0))
+    x0, strain = start.x, start.strain
+    config = GaussNewtonConfig(max_iterations=3, min_gain=0.0, converged_steps=0.0)
+    got = gauss_newton_refine(fitness, x0, space, 1, config, strain=strain)
+    expected = gauss_newton_refine(_PythonOnly(fitness), x0, space, 1, config, strain=strain)
+    assert got.fitness == expected.fitness and got.evaluations == expected.evaluations
+    assert got.stop_reason == expected.stop_reason == NO_ASCENT
+    assert got.evaluations > 9      # the differences of nine genes were taken
+    np.testing.assert_array_equal(got.x, expected.x)

@@ -209,6 +209,13 @@ class SoftFitness:
             s.p_in, s.f_in, s.p_out, s.f_out, self.palette, self.palette_weight,
             features.pyramids[0][level], features.pyramids[1][level], *self._args,
             self._table_out, self.edge_mix_fraction, self._lin_in)
+        inv_var_l, inv_var_c, wb_weight = self._args
+        self._normal_args = (
+            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2, rig.cam2.distortion12,
+            s.p_in, s.f_in, s.p_out, s.f_out, features.pyramids[0][level],
+            features.pyramids[1][level], math.sqrt(inv_var_l), math.sqrt(inv_var_c),
+            self._table_out, self.edge_mix_fraction, self._lin_in, self._half_weights,
+            wb_weight)
 
     def score(self, fitness: float) -> float:
         """The fitness clipped to [0, 1] (it is already normalised)."""
@@ -284,36 +291,26 @@ class SoftFitness:
         metric : ndarray (G, G)
             ``sum w_j J_j^T J_j`` over the inner samples.
         """
-        from photomodel.fitness._soft_jacobian import (
-            camera_frames,
-            full_gradient,
-            soft_normal_kernel,
-        )
+        from photomodel.fitness._soft_jacobian import soft_normal_equations
 
         if self.palette_weight > 0:
             raise ValueError("normal_equations: defined for the own colours only "
                              "(palette_weight 0)")
-        rig, s = self.features.rig, self.samples
-        dA = np.asarray(dA, dtype=np.float64)
-        Ms, ts, dXs = camera_frames(np.asarray(A_cam1_model, dtype=np.float64), dA, rig.R,
-                                    rig.T)
-        G = len(dA)
-        gradient = np.zeros((2, G))
-        metric = np.zeros((2, G, G))
-        hess_o = np.zeros((2, 3, 3))
-        cross_o = np.zeros((2, 3, G))
-        slope_o = np.zeros((2, 3))
-        inv_var_l, inv_var_c, wb_weight = self._args
-        soft_normal_kernel(Ms, ts, dXs, self.K1, rig.cam1.distortion12, self.K2,
-                           rig.cam2.distortion12, s.p_in, s.f_in, s.p_out, s.f_out,
-                           self.features.pyramids[0][self.level],
-                           self.features.pyramids[1][self.level], math.sqrt(inv_var_l),
-                           math.sqrt(inv_var_c), self._table_out, self.edge_mix_fraction,
-                           self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
-                           self._half_weights, wb_weight, gradient, metric, hess_o,
-                           cross_o, slope_o)
-        total = full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets)
-        return total, metric[0] + metric[1]
+        return soft_normal_equations(np.asarray(A_cam1_model, dtype=np.float64),
+                                     np.asarray(dA, dtype=np.float64),
+                                     np.ascontiguousarray(offsets, dtype=np.float64),
+                                     bool(with_offsets), self._normal_args)
+
+    def normal_kernel(self) -> tuple[Any, tuple[Any, ...]]:
+        """The numba function ``normal(A, dA, offsets, with_offsets, args)`` that gives
+        :meth:`normal_equations`, and its ``args``: what Gauss-Newton's numba loop calls
+        (:class:`~photomodel.search.KernelNormalEquations`)."""
+        from photomodel.fitness._soft_jacobian import soft_normal_equations
+
+        if self.palette_weight > 0:
+            raise ValueError("normal_kernel: defined for the own colours only "
+                             "(palette_weight 0)")
+        return soft_normal_equations, self._normal_args
 
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

@@ -412,3 +412,26 @@ def full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets):  # pragma: 
                                + slope_o[c, 2] * moved[2, g])
     return total
 
+
+
+@njit(cache=True, error_model="numpy")
+def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cover - compiled
+    """``SoftFitness.normal_equations`` of the map ``A`` (4, 4) and its derivatives ``dA`` (G,
+    4, 4) at the light offsets ``offsets`` (2, 3): the gradient (G,) (with the offsets' motion
+    when ``with_offsets``) and the metric (G, G). ``args`` holds :func:`soft_normal_kernel`'s
+    fixed arguments (``SoftFitness.normal_kernel``). Called from Python and from
+    Gauss-Newton's numba loop alike."""
+    (R, T, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2, scale_l, scale_c, table_out,
+     mix_t, lin_in, weights, wb_weight) = args
+    Ms, ts, dXs = camera_frames(A, dA, R, T)
+    G = dA.shape[0]
+    gradient = np.zeros((2, G))
+    metric = np.zeros((2, G, G))
+    hess_o = np.zeros((2, 3, 3))
+    cross_o = np.zeros((2, 3, G))
+    slope_o = np.zeros((2, 3))
+    soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2,
+                       scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
+                       gradient, metric, hess_o, cross_o, slope_o)
+    return (full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets),
+            metric[0] + metric[1])

@@ -314,9 +314,10 @@ def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
 
 @njit(cache=True, error_model="numpy")
 def soft_fitness_values(T, lanes, args):  # pragma: no cover - compiled
-    """The fitness (P,) of :func:`soft_fitness_terms`: the pose kernel the searches' numba
-    loops call (``SoftFitness.pose_kernel``)."""
-    return soft_fitness_terms(T, lanes, args)[0]
+    """The fitness (P,) of :func:`soft_fitness_terms` and each pose's light offsets (P, 2,
+    3): the pose kernel the searches' numba loops call (``SoftFitness.pose_kernel``)."""
+    f, terms = soft_fitness_terms(T, lanes, args)
+    return f, terms[:, :, 3:6]
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")

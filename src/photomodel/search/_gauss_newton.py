@@ -59,6 +59,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from photomodel.geometry import pose_vectors_to_matrices, rotation_from_eps, strained_matrices
 from photomodel.search._base import SearchResult
+from photomodel.search._gauss_newton_loop import (
+    CONVERGED,
+    NO_ASCENT_CODE,
+    add_prior,
+    damped_step,
+    gauss_newton_loop,
+    prior_values,
+    slope_along,
+)
+from photomodel.search._gauss_newton_loop import extrapolation as _extrapolation
+from photomodel.search._gauss_newton_loop import map_derivatives as _map_derivatives
+from photomodel.search._kernel_loops import KernelNormalEquations
 from photomodel.search._space import SearchSpace
 
 __all__ = ["NO_ASCENT", "GaussNewtonConfig", "NormalEquationsFitness", "ResidualFitness",
@@ -307,13 +319,14 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         prior[6:, 6:] = c.strain_prior()
 
     def values(v: NDArray[np.float64]) -> NDArray[np.float64]:  # less the strain's prior
-        return (fitness.evaluate_transforms(transforms(v))
-                - np.einsum("pi,ij,pj->p", v, prior, v))
+        return fitness.evaluate_transforms(transforms(v)) - prior_values(v, prior)
 
     def value(v: NDArray[np.float64]) -> float:
         return float(values(v[None])[0])
 
     analytic = c.jacobian == "analytic" and isinstance(fitness, NormalEquationsFitness)
+    if analytic and isinstance(fitness, KernelNormalEquations):
+        return _refine_in_kernel(fitness, x, free, h, space, prior, level, c)
     weights = (np.zeros(0) if analytic
                else np.asarray(fitness.residual_weights(), dtype=np.float64))
     # The strain's Jacobian from the translation's (no residual poses of its own).
@@ -345,22 +358,20 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                                                   points, rotation_from_eps(x[3:6]))
             evaluations += differenced_genes + 1
         if strained:
-            gradient -= (2.0 * prior @ x)[free]
-            metric += 2.0 * prior[np.ix_(free, free)]
+            add_prior(gradient, metric, prior, x, free)
         if differenced:
             gradient = _fitness_gradient(values, x, f, h, free)
             evaluations += genes
-        scale = np.diag(np.diag(metric)) + 1e-12 * np.eye(len(metric))
         step = np.zeros(genes)
         while True:
-            step[free] = np.linalg.solve(metric + damping * scale, gradient)
+            step[free] = damped_step(metric, damping, gradient)
             candidate = clip(x + step)
             candidate_value = value(candidate)
             evaluations += 1
             if candidate_value > f:
                 damping = max(damping / 3.0, 1e-4)
                 offsets = fitness.last_offsets()
-                alpha = _extrapolation(f, candidate_value, float(gradient @ step[free]),
+                alpha = _extrapolation(f, candidate_value, slope_along(gradient, step, free),
                                        c.extrapolation)
                 if alpha > 1.0:
                     further = clip(x + alpha * step)
@@ -387,92 +398,37 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
             reason = "gauss-newton: converged"
             break
     trace = np.asarray(history)
-    f += float(x @ prior @ x)     # the fitness itself
+    f += float(prior_values(x[None], prior)[0])     # the fitness itself
     return SearchResult(x[:6], f, evaluations, len(history) - 1, reason, trace, trace,
                         strain=x[6:].copy() if strained else None)
+
+
+def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],
+                      free: NDArray[np.bool_], h: NDArray[np.float64], space: SearchSpace,
+                      prior: NDArray[np.float64], level: int, c: GaussNewtonConfig
+                      ) -> SearchResult:
+    """The analytic refinement's iterations in numba (:mod:`._gauss_newton_loop`) from genes
+    ``x`` (clipped; nine with the strain)."""
+    values, value_args = fitness.pose_kernel()
+    normal, normal_args = fitness.normal_kernel()
+    x, f, evaluations, trace, code = gauss_newton_loop(
+        values, normal, numba.get_num_threads(), value_args, normal_args, x, free, h,
+        np.ascontiguousarray(space.lower, dtype=np.float64),
+        np.ascontiguousarray(space.upper, dtype=np.float64), c.max_strain, prior,
+        c.max_iterations, c.converged_steps, c.min_gain * c.min_gain_per_level**level,
+        c.min_gain_steps, c.damping0, c.max_damping, c.rejected_damping, c.min_step,
+        c.difference_on_stall, c.offsets_in_gradient, c.extrapolation)
+    reason = {CONVERGED: "gauss-newton: converged", NO_ASCENT_CODE: NO_ASCENT}.get(
+        code, out_of_iterations(c))
+    f += float(prior_values(x[None], prior)[0])     # the fitness itself
+    return SearchResult(x[:6].copy(), float(f), evaluations, len(trace) - 1, reason, trace,
+                        trace, strain=x[6:].copy() if len(x) > 6 else None)
 
 
 def out_of_iterations(config: GaussNewtonConfig) -> str:
     """Stop reason of a refinement that spent ``config.max_iterations`` accepted steps
     without converging (still climbing)."""
     return f"gauss-newton: {config.max_iterations} iterations"
-
-
-def _extrapolation(f: float, candidate_value: float, slope: float, most: float) -> float:
-    """The factor (1: none) by which to take an accepted step further: where the parabola
-    through the fitness ``f`` at the start, its ``slope`` along the step there and its value
-    ``candidate_value`` one step on peaks beyond 1.5 steps, that peak's distance in steps, at
-    most ``most``."""
-    curvature = 2.0 * (candidate_value - f - slope)
-    if most <= 1.0 or not (slope > 0.0 and curvature < 0.0):
-        return 1.0
-    alpha = min(-slope / curvature, most)
-    return alpha if alpha >= 1.5 else 1.0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _map_derivatives(x: NDArray[np.float64], free: NDArray[np.bool_]
-                     ) -> NDArray[np.float64]:  # pragma: no cover - compiled
-    """Derivatives (k, 4, 4) of the map of gene vector ``x`` (6,: a pose vector, or 9,: and
-    its strain; :func:`~photomodel.geometry.strained_matrices`) along each of its ``free``
-    genes, in closed form. The rotation's entries are quadratic in the quaternion
-    ``(e1, e2, e3, w)``, ``w = sqrt(1 - |e|^2)``, so along ``e_k`` they move by the
-    quadratic form's two terms with ``dq = (unit k, -e_k / w)``; the strain moves the
-    rotation's first two columns (central differences on 18 poses took 25 us)."""
-    e1, e2, e3 = x[3], x[4], x[5]
-    w = np.sqrt(max(1.0 - (e1 * e1 + e2 * e2 + e3 * e3), 1e-300))
-    R = np.empty((3, 3))
-    R[0, 0] = 1 - 2 * (e2 * e2 + e3 * e3)
-    R[0, 1] = 2 * (e1 * e2 - e3 * w)
-    R[0, 2] = 2 * (e1 * e3 + e2 * w)
-    R[1, 0] = 2 * (e1 * e2 + e3 * w)
-    R[1, 1] = 1 - 2 * (e1 * e1 + e3 * e3)
-    R[1, 2] = 2 * (e2 * e3 - e1 * w)
-    R[2, 0] = 2 * (e1 * e3 - e2 * w)
-    R[2, 1] = 2 * (e2 * e3 + e1 * w)
-    R[2, 2] = 1 - 2 * (e1 * e1 + e2 * e2)
-    S = np.eye(2)      # the strain's stretch of the model plane
-    if x.shape[0] > 6:
-        S[0, 0] += x[6]
-        S[1, 1] += x[7]
-        S[0, 1] = S[1, 0] = x[8]
-    out = np.zeros((int(np.sum(free)), 4, 4))
-    D = np.empty((3, 3))
-    k = 0
-    for g in range(x.shape[0]):
-        if not free[g]:
-            continue
-        if g < 3:
-            out[k, g, 3] = 1.0
-        elif g < 6:
-            d1 = 1.0 if g == 3 else 0.0
-            d2 = 1.0 if g == 4 else 0.0
-            d3 = 1.0 if g == 5 else 0.0
-            dw = -x[g] / w
-            D[0, 0] = -4 * (e2 * d2 + e3 * d3)
-            D[0, 1] = 2 * (d1 * e2 + e1 * d2 - d3 * w - e3 * dw)
-            D[0, 2] = 2 * (d1 * e3 + e1 * d3 + d2 * w + e2 * dw)
-            D[1, 0] = 2 * (d1 * e2 + e1 * d2 + d3 * w + e3 * dw)
-            D[1, 1] = -4 * (e1 * d1 + e3 * d3)
-            D[1, 2] = 2 * (d2 * e3 + e2 * d3 - d1 * w - e1 * dw)
-            D[2, 0] = 2 * (d1 * e3 + e1 * d3 - d2 * w - e2 * dw)
-            D[2, 1] = 2 * (d2 * e3 + e2 * d3 + d1 * w + e1 * dw)
-            D[2, 2] = -4 * (e1 * d1 + e2 * d2)
-            for i in range(3):
-                for j in range(2):
-                    out[k, i, j] = D[i, 0] * S[0, j] + D[i, 1] * S[1, j]
-                out[k, i, 2] = D[i, 2]
-        else:
-            for i in range(3):
-                if g == 6:
-                    out[k, i, 0] = R[i, 0]
-                elif g == 7:
-                    out[k, i, 1] = R[i, 1]
-                else:
-                    out[k, i, 0] = R[i, 1]
-                    out[k, i, 1] = R[i, 0]
-        k += 1
-    return out
 
 
 def _fitness_gradient(values: Callable[[NDArray[np.float64]], NDArray[np.float64]],

@@ -30,7 +30,7 @@ from photomodel.search._base import SearchResult
 from photomodel.search._refine import RefineConfig
 from photomodel.search._space import SearchSpace
 
-__all__ = ["KernelFitness", "OnPlane", "refine_kernel"]
+__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "refine_kernel"]
 
 
 @runtime_checkable
@@ -40,8 +40,22 @@ class KernelFitness(Protocol):
     def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]: ...
 
     def pose_kernel(self) -> tuple[Callable[..., NDArray[np.float64]], tuple[Any, ...]]:
-        """``(values, args)``: ``values(T, lanes, args)`` is the fitness (P,) of maps ``T``
-        (P, 4, 4) of model points into camera 1 on ``lanes`` threads, a numba function."""
+        """``(values, args)``: ``values(T, lanes, args)``, a numba function, gives the
+        fitness (P,) of maps ``T`` (P, 4, 4) of model points into camera 1 on ``lanes``
+        threads and the light offsets (P, 2, 3) it found for each (those of
+        ``ResidualFitness.last_offsets``)."""
+        ...
+
+
+@runtime_checkable
+class KernelNormalEquations(KernelFitness, Protocol):
+    """A kernel fitness that also gives the numba function of its normal equations
+    (``SoftFitness``)."""
+
+    def normal_kernel(self) -> tuple[Callable[..., Any], tuple[Any, ...]]:
+        """``(normal, args)``: ``normal(A, dA, offsets, with_offsets, args)``, a numba
+        function, gives what ``NormalEquationsFitness.normal_equations(A, dA, offsets,
+        with_offsets)`` gives: the gradient (G,) and metric (G, G)."""
         ...
 
 
@@ -113,7 +127,7 @@ def _refine_loop(values, lanes, args, x0, step0, normals, lower, upper, grow, sh
     mean fitness of each iteration."""
     population = normals.shape[1]
     f0 = values(_plane_maps(x0.reshape(1, 6).copy(), on_plane, q, plane_lower, plane_upper),
-                lanes, args)[0]
+                lanes, args)[0][0]
     best_x = np.minimum(np.maximum(x0, lower), upper)
     best_f = f0
     step = step0.copy()
@@ -139,7 +153,7 @@ def _refine_loop(values, lanes, args, x0, step0, normals, lower, upper, grow, sh
             X[p, 1] = X[p, 1] * X[p, 2]
             for g in range(6):
                 X[p, g] = min(max(X[p, g], lower[g]), upper[g])
-        f = values(_plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper), lanes, args)
+        f = values(_plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper), lanes, args)[0]
         i = 0
         total = 0.0
         for p in range(population):
