@@ -41,6 +41,8 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
+from photomodel.fitness._soft_jacobian import soft_normal_equations
+from photomodel.fitness._soft_kernels import soft_fitness_terms
 from photomodel.geometry import pose_vectors_to_matrices
 from photomodel.image._features import feature_pyramid, log_opponent
 from photomodel.model import PhotoModel
@@ -154,6 +156,11 @@ def level_spacing(level: int, base: SampleSpacing | None = None,
                    optics_blur_mm=float(optics_blur_mm))
 
 
+def _f64(a: NDArray[np.floating] | NDArray[np.integer]) -> NDArray[np.float64]:
+    """``a`` as a C-contiguous float64 array."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 class SoftFitness:
     """The ``soft`` fitness of one model at one pyramid level (see the module docstring).
 
@@ -203,18 +210,23 @@ class SoftFitness:
         self._lin_in = self.samples.lin_in
         self._half_weights = self.residual_weights() / 2.0    # each camera's half
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
+        # The kernels' arguments, each of one fixed type (C-contiguous float64, the images
+        # float32, the table int64): one compiled specialisation of every numba loop.
         rig, s = features.rig, self.samples
-        self._kernel_args = (
-            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2, rig.cam2.distortion12,
-            s.p_in, s.f_in, s.p_out, s.f_out, self.palette, self.palette_weight,
-            features.pyramids[0][level], features.pyramids[1][level], *self._args,
-            self._table_out, self.edge_mix_fraction, self._lin_in)
+        geometry = tuple(_f64(a) for a in (rig.R, rig.T, self.K1, rig.cam1.distortion12,
+                                           self.K2, rig.cam2.distortion12))
+        points = tuple(_f64(a) for a in (s.p_in, s.f_in, s.p_out, s.f_out))
+        images = tuple(np.ascontiguousarray(p[level], dtype=np.float32)
+                       for p in features.pyramids)
+        table = np.ascontiguousarray(self._table_out, dtype=np.int64)
         inv_var_l, inv_var_c, wb_weight = self._args
+        self._kernel_args = (
+            *geometry, *points, _f64(self.palette), self.palette_weight, *images,
+            inv_var_l, inv_var_c, wb_weight, table, float(self.edge_mix_fraction),
+            _f64(self._lin_in))
         self._normal_args = (
-            rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2, rig.cam2.distortion12,
-            s.p_in, s.f_in, s.p_out, s.f_out, features.pyramids[0][level],
-            features.pyramids[1][level], math.sqrt(inv_var_l), math.sqrt(inv_var_c),
-            self._table_out, self.edge_mix_fraction, self._lin_in, self._half_weights,
+            *geometry, *points, *images, math.sqrt(inv_var_l), math.sqrt(inv_var_c), table,
+            float(self.edge_mix_fraction), _f64(self._lin_in), _f64(self._half_weights),
             wb_weight)
 
     def score(self, fitness: float) -> float:
@@ -227,20 +239,14 @@ class SoftFitness:
 
     def evaluate_transforms(self, T_cam1_model: NDArray[np.float64]) -> NDArray[np.float64]:
         """Fitness (P,) of transforms (P, 4, 4); per-camera terms kept in ``last_terms``."""
-        from photomodel.fitness._soft_kernels import soft_fitness_terms
-
-        T = np.asarray(T_cam1_model, dtype=np.float64).reshape(-1, 4, 4)
+        T = _f64(np.reshape(T_cam1_model, (-1, 4, 4)))
         f, self.last_terms = soft_fitness_terms(T, numba.get_num_threads(), self._kernel_args)
         return f
 
-    def pose_kernel(self) -> tuple[Any, tuple[Any, ...]]:
-        """The numba function ``values(T, lanes, args)`` that gives this fitness (P,) of maps
-        ``T`` (P, 4, 4) of model points into camera 1 on ``lanes`` threads, and its ``args``:
-        what the searches' numba loops call instead of :meth:`evaluate_transforms`
-        (:class:`~photomodel.search.KernelFitness`)."""
-        from photomodel.fitness._soft_kernels import soft_fitness_values
-
-        return soft_fitness_values, self._kernel_args
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The arguments with which the searches' numba loops evaluate this fitness
+        (:class:`~photomodel.search.KernelFitness`; ``soft_fitness_values`` in numba)."""
+        return self._kernel_args
 
     def last_offsets(self) -> NDArray[np.float64]:
         """Light offsets (2, 3), (o_l, o_a, o_b) of each camera, that the last call found for
@@ -291,26 +297,19 @@ class SoftFitness:
         metric : ndarray (G, G)
             ``sum w_j J_j^T J_j`` over the inner samples.
         """
-        from photomodel.fitness._soft_jacobian import soft_normal_equations
-
         if self.palette_weight > 0:
             raise ValueError("normal_equations: defined for the own colours only "
                              "(palette_weight 0)")
-        return soft_normal_equations(np.asarray(A_cam1_model, dtype=np.float64),
-                                     np.asarray(dA, dtype=np.float64),
-                                     np.ascontiguousarray(offsets, dtype=np.float64),
-                                     bool(with_offsets), self._normal_args)
+        return soft_normal_equations(_f64(A_cam1_model), _f64(dA),
+                                     _f64(offsets), bool(with_offsets), self._normal_args)
 
-    def normal_kernel(self) -> tuple[Any, tuple[Any, ...]]:
-        """The numba function ``normal(A, dA, offsets, with_offsets, args)`` that gives
-        :meth:`normal_equations`, and its ``args``: what Gauss-Newton's numba loop calls
-        (:class:`~photomodel.search.KernelNormalEquations`)."""
-        from photomodel.fitness._soft_jacobian import soft_normal_equations
-
+    def normal_args(self) -> tuple[Any, ...]:
+        """The arguments with which Gauss-Newton's numba loop takes :meth:`normal_equations`
+        (:class:`~photomodel.search.KernelNormalEquations`; ``soft_normal_equations``)."""
         if self.palette_weight > 0:
-            raise ValueError("normal_kernel: defined for the own colours only "
+            raise ValueError("normal_args: defined for the own colours only "
                              "(palette_weight 0)")
-        return soft_normal_equations, self._normal_args
+        return self._normal_args
 
     def residuals(self, T_cam1_model: NDArray[np.float64], offsets: NDArray[np.float64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

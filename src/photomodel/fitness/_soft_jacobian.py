@@ -27,9 +27,17 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
 
 from photomodel.fitness._kernels import _project_jacobian, exp_neg
-from photomodel.fitness._soft_kernels import _LOGS, _OPPONENT, _bilinear_cell, _light_gain
+from photomodel.fitness._soft_kernels import (
+    _LOGS,
+    _OPPONENT,
+    _bilinear_cell,
+    _light_gain,
+    soft_args_type,
+)
+from photomodel.search._kernel_loops import kernel_normal_equations
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -419,7 +427,7 @@ def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cov
     """``SoftFitness.normal_equations`` of the map ``A`` (4, 4) and its derivatives ``dA`` (G,
     4, 4) at the light offsets ``offsets`` (2, 3): the gradient (G,) (with the offsets' motion
     when ``with_offsets``) and the metric (G, G). ``args`` holds :func:`soft_normal_kernel`'s
-    fixed arguments (``SoftFitness.normal_kernel``). Called from Python and from
+    fixed arguments (``SoftFitness.normal_args``). Called from Python and from
     Gauss-Newton's numba loop alike."""
     (R, T, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2, scale_l, scale_c, table_out,
      mix_t, lin_in, weights, wb_weight) = args
@@ -435,3 +443,12 @@ def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cov
                        gradient, metric, hess_o, cross_o, slope_o)
     return (full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets),
             metric[0] + metric[1])
+
+
+@overload(kernel_normal_equations)
+def _kernel_normal_equations(A, dA, offsets, with_offsets, args):  # type: ignore[no-untyped-def]
+    """The ``soft`` fitness's implementation of Gauss-Newton's ``kernel_normal_equations``."""
+    if soft_args_type(args, 19, (10, 11)):
+        return lambda A, dA, offsets, with_offsets, args: soft_normal_equations(
+            A, dA, offsets, with_offsets, args)
+    return None

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 
 from photomodel.fitness._kernels import _project, camera2_pose, exp_neg
+from photomodel.search._kernel_loops import kernel_values
 
 _OFFSET_ITERATIONS = 3
 """Mean-shift steps of the light offsets from each start."""
@@ -296,7 +298,7 @@ def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
     """:func:`soft_fitness_kernel` of the maps ``T`` (P, 4, 4) of model points into camera 1
     (their first two columns, and the translation) on ``lanes`` threads: the fitness (P,) and
     each camera's terms (P, 2, 6). ``args`` holds the kernel's arguments from ``R21`` to
-    ``lin_in`` (``SoftFitness.pose_kernel``). Called from Python and from the searches'
+    ``lin_in`` (``SoftFitness.kernel_args``). Called from Python and from the searches'
     numba loops alike (``numba.get_num_threads()`` inside would keep it from the cache)."""
     P = T.shape[0]
     Rs = np.empty((P, 3, 3))
@@ -315,9 +317,25 @@ def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
 @njit(cache=True, error_model="numpy")
 def soft_fitness_values(T, lanes, args):  # pragma: no cover - compiled
     """The fitness (P,) of :func:`soft_fitness_terms` and each pose's light offsets (P, 2,
-    3): the pose kernel the searches' numba loops call (``SoftFitness.pose_kernel``)."""
+    3): the pose kernel the searches' numba loops call (``SoftFitness.kernel_args``)."""
     f, terms = soft_fitness_terms(T, lanes, args)
     return f, terms[:, :, 3:6]
+
+
+def soft_args_type(args: types.Type, size: int, images: tuple[int, int]) -> bool:
+    """Whether the numba type ``args`` is the tuple of ``size`` arguments of a ``soft``
+    kernel, its float32 images at ``images``."""
+    return (isinstance(args, types.BaseTuple) and len(args) == size
+            and all(isinstance(args[i], types.Array) and args[i].dtype == types.float32
+                    and args[i].ndim == 3 for i in images))
+
+
+@overload(kernel_values)
+def _kernel_values(T, lanes, args):  # type: ignore[no-untyped-def]
+    """The ``soft`` fitness's implementation of the searches' ``kernel_values``."""
+    if soft_args_type(args, 20, (12, 13)):
+        return lambda T, lanes, args: soft_fitness_values(T, lanes, args)
+    return None
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")

@@ -409,10 +409,8 @@ def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],
                       ) -> SearchResult:
     """The analytic refinement's iterations in numba (:mod:`._gauss_newton_loop`) from genes
     ``x`` (clipped; nine with the strain)."""
-    values, value_args = fitness.pose_kernel()
-    normal, normal_args = fitness.normal_kernel()
     x, f, evaluations, trace, code = gauss_newton_loop(
-        values, normal, numba.get_num_threads(), value_args, normal_args, x, free, h,
+        numba.get_num_threads(), fitness.kernel_args(), fitness.normal_args(), x, free, h,
         np.ascontiguousarray(space.lower, dtype=np.float64),
         np.ascontiguousarray(space.upper, dtype=np.float64), c.max_strain, prior,
         c.max_iterations, c.converged_steps, c.min_gain * c.min_gain_per_level**level,

@@ -3,9 +3,10 @@
 :func:`~photomodel.search.gauss_newton_refine` with the analytic Jacobian spent about 0.2 ms
 of Python an iteration (pose maps, the fitness's wrappers, the damped solve, clipping, the
 strain's prior) beside the normal equations' 0.2 ms (level 1) and 0.55 ms (level 0): on the
-typical stereo pair 3.3 of its 12.7 ms. A fitness that gives numba functions of its values
-and normal equations (:class:`~photomodel.search.KernelNormalEquations`, the ``soft``
-fitness) is refined here by the same iterations in one compiled loop. The arithmetic both
+typical stereo pair 3.3 of its 12.7 ms. A fitness whose values and normal equations have
+numba kernels (:class:`~photomodel.search.KernelNormalEquations`, the ``soft`` fitness,
+through ``_kernel_loops.kernel_values`` and ``kernel_normal_equations``) is refined here by
+the same iterations in one compiled loop. The arithmetic both
 loops share (the prior's terms, the damped solve, the extrapolation, the step's slope) is in
 the numba helpers below, which the Python loop calls too: the two give the same result to
 the bit (``tests/search/test_kernel_loops.py``).
@@ -18,6 +19,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from photomodel.geometry import pose_maps_kernel
+from photomodel.search._kernel_loops import kernel_normal_equations, kernel_values
 
 CONVERGED, NO_ASCENT_CODE, OUT_OF_ITERATIONS = 0, 1, 2
 """The loop's stop codes."""
@@ -176,21 +178,21 @@ def _clip(v, lower, upper, max_strain):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _values(values, lanes, args, V, prior):  # pragma: no cover - compiled
+def _values(lanes, args, V, prior):  # pragma: no cover - compiled
     """The fitness less the prior (P,) of gene vectors ``V`` and the first one's offsets."""
-    f, offsets = values(_gene_maps(V), lanes, args)
+    f, offsets = kernel_values(_gene_maps(V), lanes, args)
     return f - prior_values(V, prior), offsets[0].copy()
 
 
 @njit(cache=True, error_model="numpy")
-def _fitness_gradient(values, lanes, args, x, f, h, free, prior):  # pragma: no cover
+def _fitness_gradient(lanes, args, x, f, h, free, prior):  # pragma: no cover
     """Forward differences of the fitness itself over the free genes at ``x`` (``f``)."""
     G = x.shape[0]
     V = np.empty((G, G))
     for i in range(G):
         for j in range(G):
             V[i, j] = x[j] + (h[i] if i == j else 0.0)
-    fv = _values(values, lanes, args, V, prior)[0]
+    fv = _values(lanes, args, V, prior)[0]
     out = np.empty(int(np.sum(free)))
     k = 0
     for g in range(G):
@@ -201,7 +203,7 @@ def _fitness_gradient(values, lanes, args, x, f, h, free, prior):  # pragma: no 
 
 
 @njit(cache=True, error_model="numpy")
-def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
+def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                       upper, max_strain, prior, max_iterations, converged_steps, min_gain,
                       min_gain_steps, damping0, max_damping, rejected_damping, min_step,
                       difference_on_stall, with_offsets,
@@ -209,7 +211,7 @@ def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
     """``gauss_newton_refine``'s iterations with the analytic Jacobian from gene vector ``x``
     (already clipped): the last accepted genes, their fitness less the prior, the
     evaluations, the fitness history and the stop code."""
-    f, offsets = _values(values, lanes, vargs, x.reshape(1, -1).copy(), prior)
+    f, offsets = _values(lanes, vargs, x.reshape(1, -1).copy(), prior)
     f = f[0]
     evaluations = 1
     history = np.empty(max_iterations + 1)
@@ -222,12 +224,12 @@ def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
     small_gains = 0
     step = np.zeros(genes)
     for _ in range(max_iterations):
-        gradient, metric = normal(_gene_maps(x.reshape(1, -1).copy())[0],
+        gradient, metric = kernel_normal_equations(_gene_maps(x.reshape(1, -1).copy())[0],
                                   map_derivatives(x, free), offsets, with_offsets, nargs)
         evaluations += 1
         add_prior(gradient, metric, prior, x, free)
         if differenced:
-            gradient = _fitness_gradient(values, lanes, vargs, x, f, h, free, prior)
+            gradient = _fitness_gradient(lanes, vargs, x, f, h, free, prior)
             evaluations += genes
         candidate = x
         candidate_value = f
@@ -240,7 +242,7 @@ def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
                     step[g] = solved[k]
                     k += 1
             candidate = _clip(x + step, lower, upper, max_strain)
-            value, moved = _values(values, lanes, vargs, candidate.reshape(1, -1).copy(), prior)
+            value, moved = _values(lanes, vargs, candidate.reshape(1, -1).copy(), prior)
             candidate_value = value[0]
             evaluations += 1
             if candidate_value > f:
@@ -249,7 +251,7 @@ def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
                 alpha = extrapolation(f, candidate_value, slope_along(gradient, step, free), most)
                 if alpha > 1.0:
                     further = _clip(x + alpha * step, lower, upper, max_strain)
-                    value, moved = _values(values, lanes, vargs, further.reshape(1, -1).copy(),
+                    value, moved = _values(lanes, vargs, further.reshape(1, -1).copy(),
                                            prior)
                     evaluations += 1
                     if value[0] > candidate_value:
@@ -265,7 +267,7 @@ def gauss_newton_loop(values, normal, lanes, vargs, nargs, x, free, h, lower,
                 if differenced or not difference_on_stall:
                     break
                 differenced, damping = True, damping0
-                gradient = _fitness_gradient(values, lanes, vargs, x, f, h, free, prior)
+                gradient = _fitness_gradient(lanes, vargs, x, f, h, free, prior)
                 evaluations += genes
         if candidate_value <= f:
             reason = NO_ASCENT_CODE

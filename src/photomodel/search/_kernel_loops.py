@@ -1,13 +1,13 @@
-"""The local searches' loops in numba, for a fitness that gives its numba kernel.
+"""The local searches' loops in numba, for a fitness whose numba kernel they can call.
 
 :class:`~photomodel.search.LocalRefine` behind ask/tell costs some 50 us of Python an
 iteration (drawing, ray coordinates, clipping, pose maps, the fitness's wrapper, the
 tracker) where a coarse level's kernel costs 30-150 us: on the typical stereo pair the
 evolution strategies of levels 3 and 2 spent 2.5 of their 6.8 ms outside the kernel. A
-fitness that gives a numba function of pose maps (:class:`KernelFitness`, the ``soft``
-fitness) is searched here by the same strategy in one compiled loop that calls that function
-directly: the same draws from the caller's generator in the same order, the same arithmetic,
-the same result to the bit (``tests/search/test_search_kernel_loops.py``).
+fitness whose numba kernel the loop can call (:class:`KernelFitness`, the ``soft`` fitness,
+through :func:`kernel_values`) is searched here by the same strategy in one compiled loop:
+the same draws from the caller's generator in the same order, the same arithmetic, the same
+result to the bit (``tests/search/test_kernel_loops.py``).
 """
 
 from __future__ import annotations
@@ -30,33 +30,55 @@ from photomodel.search._base import SearchResult
 from photomodel.search._refine import RefineConfig
 from photomodel.search._space import SearchSpace
 
-__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "refine_kernel"]
+__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "kernel_normal_equations",
+           "kernel_values", "refine_kernel"]
 
 
 @runtime_checkable
 class KernelFitness(Protocol):
-    """A fitness that also gives the numba function it evaluates (``SoftFitness``)."""
+    """A fitness whose numba kernel the searches' numba loops call (``SoftFitness``)."""
 
     def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]: ...
 
-    def pose_kernel(self) -> tuple[Callable[..., NDArray[np.float64]], tuple[Any, ...]]:
-        """``(values, args)``: ``values(T, lanes, args)``, a numba function, gives the
-        fitness (P,) of maps ``T`` (P, 4, 4) of model points into camera 1 on ``lanes``
-        threads and the light offsets (P, 2, 3) it found for each (those of
-        ``ResidualFitness.last_offsets``)."""
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The arguments of :func:`kernel_values` that give this fitness: a tuple whose numba
+        type has an implementation registered for it."""
         ...
 
 
 @runtime_checkable
 class KernelNormalEquations(KernelFitness, Protocol):
-    """A kernel fitness that also gives the numba function of its normal equations
-    (``SoftFitness``)."""
+    """A kernel fitness whose normal equations have a numba kernel too (``SoftFitness``)."""
 
-    def normal_kernel(self) -> tuple[Callable[..., Any], tuple[Any, ...]]:
-        """``(normal, args)``: ``normal(A, dA, offsets, with_offsets, args)``, a numba
-        function, gives what ``NormalEquationsFitness.normal_equations(A, dA, offsets,
-        with_offsets)`` gives: the gradient (G,) and metric (G, G)."""
+    def normal_args(self) -> tuple[Any, ...]:
+        """The arguments of :func:`kernel_normal_equations` that give this fitness's
+        ``normal_equations``."""
         ...
+
+
+def kernel_values(T: NDArray[np.float64], lanes: int, args: tuple[Any, ...]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The fitness (P,) of maps ``T`` (P, 4, 4) of model points into camera 1, on ``lanes``
+    threads, and the light offsets (P, 2, 3) it found for each pose (those of
+    ``ResidualFitness.last_offsets``), of the kernel fitness whose :meth:`KernelFitness.
+    kernel_args` are ``args``.
+
+    For numba code only: numba resolves it by the type of ``args`` to the implementation the
+    fitness registers with ``numba.extending.overload`` (the ``soft`` fitness's in
+    ``fitness/_soft_kernels.py``). The loops take no function arguments: numba's cache
+    failed to save functions with one when two processes compiled them at once
+    (``ReferenceError: underlying object has vanished``, numba issue 9348)."""
+    raise NotImplementedError("kernel_values runs inside numba code only")
+
+
+def kernel_normal_equations(A: NDArray[np.float64], dA: NDArray[np.float64],
+                            offsets: NDArray[np.float64], with_offsets: bool,
+                            args: tuple[Any, ...]
+                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """What ``NormalEquationsFitness.normal_equations(A, dA, offsets, with_offsets)`` gives
+    (gradient (G,), metric (G, G)) for the fitness whose :meth:`KernelNormalEquations.
+    normal_args` are ``args``; resolved by numba as :func:`kernel_values`."""
+    raise NotImplementedError("kernel_normal_equations runs inside numba code only")
 
 
 class OnPlane:
@@ -92,14 +114,14 @@ def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,
     fitness = objective.objective if plane is not None else objective
     if not isinstance(fitness, KernelFitness):
         raise TypeError("refine_kernel: expected a KernelFitness or an OnPlane of one")
-    values, args = fitness.pose_kernel()
+    args = fitness.kernel_args()
     c = config
     state = rng.bit_generator.state
     normals = rng.standard_normal((c.max_iterations, c.population, 6))
     q = plane.q_facing if plane is not None else np.array([1.0, 0.0, 0.0, 0.0])
     box = plane.space if plane is not None else space
     x, f, iterations, converged, best, mean = _refine_loop(
-        values, numba.get_num_threads(), args, np.asarray(x0, dtype=np.float64).reshape(6),
+        numba.get_num_threads(), args, np.asarray(x0, dtype=np.float64).reshape(6),
         c.steps, normals, space.lower, space.upper, c.grow, c.shrink, c.min_step_fraction,
         c.max_iterations, plane is not None, q, box.lower, box.upper)
     rng.bit_generator.state = state     # the draws used, as LocalRefine draws them
@@ -119,14 +141,14 @@ def _plane_maps(X, on_plane, q, lower, upper):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _refine_loop(values, lanes, args, x0, step0, normals, lower, upper, grow, shrink, min_fraction,
+def _refine_loop(lanes, args, x0, step0, normals, lower, upper, grow, shrink, min_fraction,
                  max_iterations, on_plane, q, plane_lower,
                  plane_upper):  # pragma: no cover - compiled
     """:class:`LocalRefine`'s iterations with the draws ``normals`` (max_iterations, P, 6):
     the best pose and fitness, the iterations, whether the steps converged, and the best and
     mean fitness of each iteration."""
     population = normals.shape[1]
-    f0 = values(_plane_maps(x0.reshape(1, 6).copy(), on_plane, q, plane_lower, plane_upper),
+    f0 = kernel_values(_plane_maps(x0.reshape(1, 6).copy(), on_plane, q, plane_lower, plane_upper),
                 lanes, args)[0][0]
     best_x = np.minimum(np.maximum(x0, lower), upper)
     best_f = f0
@@ -153,7 +175,8 @@ def _refine_loop(values, lanes, args, x0, step0, normals, lower, upper, grow, sh
             X[p, 1] = X[p, 1] * X[p, 2]
             for g in range(6):
                 X[p, g] = min(max(X[p, g], lower[g]), upper[g])
-        f = values(_plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper), lanes, args)[0]
+        maps = _plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper)
+        f = kernel_values(maps, lanes, args)[0]
         i = 0
         total = 0.0
         for p in range(population):
