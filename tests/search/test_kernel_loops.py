@@ -9,7 +9,7 @@ import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import SoftFitness, StereoFeatures
-from photomodel.geometry import eps_from_rotation, flat_pose_vectors
+from photomodel.geometry import eps_from_rotation, flat_pose_vectors, quat_wxyz_from_matrix
 from photomodel.search import (
     GaussNewtonConfig,
     KernelFitness,
@@ -54,7 +54,8 @@ def test_the_numba_evolution_strategy_repeats_local_refine(on_plane: bool, seed:
     config = RefineConfig(population=8, max_iterations=60, min_step_fraction=0.2).scaled(4.0)
     if on_plane:
         rig = level3.features.rig
-        objective: SoftFitness | OnPlane = OnPlane(level3, space, rig.R_cam1_facing)
+        q_facing = quat_wxyz_from_matrix(rig.R_cam1_facing)
+        objective: SoftFitness | OnPlane = OnPlane(level3, space, q_facing)
         search_space = _flat_space(space)
         x0 = flat_pose_vectors(truth + kick, rig.R_cam1_facing)[0]
     else:

@@ -297,17 +297,14 @@ class SoftFitness:
         metric : ndarray (G, G)
             ``sum w_j J_j^T J_j`` over the inner samples.
         """
-        if self.palette_weight > 0:
-            raise ValueError("normal_equations: defined for the own colours only "
-                             "(palette_weight 0)")
-        return soft_normal_equations(_f64(A_cam1_model), _f64(dA),
-                                     _f64(offsets), bool(with_offsets), self._normal_args)
+        return soft_normal_equations(_f64(A_cam1_model), _f64(dA), _f64(offsets),
+                                     bool(with_offsets), self.normal_args())
 
     def normal_args(self) -> tuple[Any, ...]:
         """The arguments with which Gauss-Newton's numba loop takes :meth:`normal_equations`
         (:class:`~photomodel.search.KernelNormalEquations`; ``soft_normal_equations``)."""
         if self.palette_weight > 0:
-            raise ValueError("normal_args: defined for the own colours only "
+            raise ValueError("normal equations: defined for the own colours only "
                              "(palette_weight 0)")
         return self._normal_args
 

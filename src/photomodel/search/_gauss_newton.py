@@ -63,6 +63,7 @@ from photomodel.search._gauss_newton_loop import (
     CONVERGED,
     NO_ASCENT_CODE,
     add_prior,
+    clip_genes,
     damped_step,
     gauss_newton_loop,
     prior_values,
@@ -304,10 +305,7 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         free = np.concatenate([free, np.ones(3, dtype=bool)])
 
     def clip(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        v = v.copy()
-        v[:6] = space.clip(v[:6])
-        v[6:] = np.clip(v[6:], -c.max_strain, c.max_strain)
-        return v
+        return clip_genes(v, space.lower, space.upper, c.max_strain)
 
     def transforms(poses: NDArray[np.float64]) -> NDArray[np.float64]:
         if strained:

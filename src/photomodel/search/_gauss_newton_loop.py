@@ -7,7 +7,8 @@ typical stereo pair 3.3 of its 12.7 ms. A fitness whose values and normal equati
 numba kernels (:class:`~photomodel.search.KernelNormalEquations`, the ``soft`` fitness,
 through ``_kernel_loops.kernel_values`` and ``kernel_normal_equations``) is refined here by
 the same iterations in one compiled loop. The arithmetic both
-loops share (the prior's terms, the damped solve, the extrapolation, the step's slope) is in
+loops share (the prior's terms, the damped solve, the extrapolation, the step's slope, the
+clipping) is in
 the numba helpers below, which the Python loop calls too: the two give the same result to
 the bit (``tests/search/test_kernel_loops.py``).
 """
@@ -167,7 +168,9 @@ def _gene_maps(V):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _clip(v, lower, upper, max_strain):  # pragma: no cover - compiled
+def clip_genes(v, lower, upper, max_strain):  # pragma: no cover - compiled
+    """Gene vector ``v`` with its pose in the box (``lower``, ``upper``) (6,) and its strain
+    within +-``max_strain``."""
     out = v.copy()
     for g in range(v.shape[0]):
         if g < 6:
@@ -211,7 +214,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
     """``gauss_newton_refine``'s iterations with the analytic Jacobian from gene vector ``x``
     (already clipped): the last accepted genes, their fitness less the prior, the
     evaluations, the fitness history and the stop code."""
-    f, offsets = _values(lanes, vargs, x.reshape(1, -1).copy(), prior)
+    f, offsets = _values(lanes, vargs, x.reshape(1, -1), prior)
     f = f[0]
     evaluations = 1
     history = np.empty(max_iterations + 1)
@@ -224,7 +227,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
     small_gains = 0
     step = np.zeros(genes)
     for _ in range(max_iterations):
-        gradient, metric = kernel_normal_equations(_gene_maps(x.reshape(1, -1).copy())[0],
+        gradient, metric = kernel_normal_equations(_gene_maps(x.reshape(1, -1))[0],
                                   map_derivatives(x, free), offsets, with_offsets, nargs)
         evaluations += 1
         add_prior(gradient, metric, prior, x, free)
@@ -241,8 +244,8 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                 if free[g]:
                     step[g] = solved[k]
                     k += 1
-            candidate = _clip(x + step, lower, upper, max_strain)
-            value, moved = _values(lanes, vargs, candidate.reshape(1, -1).copy(), prior)
+            candidate = clip_genes(x + step, lower, upper, max_strain)
+            value, moved = _values(lanes, vargs, candidate.reshape(1, -1), prior)
             candidate_value = value[0]
             evaluations += 1
             if candidate_value > f:
@@ -250,9 +253,8 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                 offsets = moved
                 alpha = extrapolation(f, candidate_value, slope_along(gradient, step, free), most)
                 if alpha > 1.0:
-                    further = _clip(x + alpha * step, lower, upper, max_strain)
-                    value, moved = _values(lanes, vargs, further.reshape(1, -1).copy(),
-                                           prior)
+                    further = clip_genes(x + alpha * step, lower, upper, max_strain)
+                    value, moved = _values(lanes, vargs, further.reshape(1, -1), prior)
                     evaluations += 1
                     if value[0] > candidate_value:
                         candidate, candidate_value, step = further, value[0], further - x

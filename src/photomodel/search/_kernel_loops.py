@@ -20,18 +20,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from photomodel.geometry import (
-    facing_kernel,
-    facing_pose_vectors,
-    pose_maps_kernel,
-    quat_wxyz_from_matrix,
-)
+from photomodel.geometry import facing_kernel, facing_pose_vectors, pose_maps_kernel
 from photomodel.search._base import SearchResult
 from photomodel.search._refine import RefineConfig
 from photomodel.search._space import SearchSpace
 
-__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "kernel_normal_equations",
-           "kernel_values", "refine_kernel"]
+__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "kernel_fitness",
+           "kernel_normal_equations", "kernel_values", "plane_poses", "refine_kernel"]
 
 
 @runtime_checkable
@@ -81,23 +76,33 @@ def kernel_normal_equations(A: NDArray[np.float64], dA: NDArray[np.float64],
     raise NotImplementedError("kernel_normal_equations runs inside numba code only")
 
 
+def plane_poses(flat: NDArray[np.float64], space: SearchSpace,
+                q_facing: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Pose vectors (N, 6) of *flat* pose vectors ``(x, y, z, -, -, sin(theta / 2))`` (N, 6)
+    laid on the plane of ``quat_wxyz`` ``q_facing``
+    (:func:`~photomodel.geometry.facing_pose_vectors`), clipped into ``space``."""
+    return space.clip(facing_pose_vectors(flat, q_facing))
+
+
 class OnPlane:
-    """``objective`` of pose vectors laid on the plane ``R_cam1_facing``: the search's
-    *flat* pose vectors ``(x, y, z, -, -, sin(theta / 2))`` become
-    :func:`~photomodel.geometry.facing_pose_vectors`, clipped into ``space``."""
+    """``objective`` of flat pose vectors laid on the plane of ``quat_wxyz`` ``q_facing``
+    (``R_cam1_facing``'s) and clipped into ``space`` (:func:`plane_poses`)."""
 
     def __init__(self, objective: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                 space: SearchSpace, R_cam1_facing: NDArray[np.float64]) -> None:
+                 space: SearchSpace, q_facing: NDArray[np.float64]) -> None:
         self.objective = objective
         self.space = space
-        self.q_facing = quat_wxyz_from_matrix(R_cam1_facing)
-
-    def poses(self, flat: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Pose vectors (N, 6) of flat pose vectors (N, 6)."""
-        return self.space.clip(facing_pose_vectors(flat, self.q_facing))
+        self.q_facing = np.asarray(q_facing, dtype=np.float64).reshape(4)
 
     def __call__(self, flat: NDArray[np.float64]) -> NDArray[np.float64]:
-        return self.objective(self.poses(flat))
+        return self.objective(plane_poses(flat, self.space, self.q_facing))
+
+
+def kernel_fitness(objective: object) -> KernelFitness | None:
+    """The :class:`KernelFitness` that ``objective`` evaluates (itself, or the one an
+    :class:`OnPlane` lays on its plane), None where it has no kernel."""
+    fitness = objective.objective if isinstance(objective, OnPlane) else objective
+    return fitness if isinstance(fitness, KernelFitness) else None
 
 
 def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,
@@ -111,8 +116,8 @@ def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,
     then holds flat pose vectors).
     """
     plane = objective if isinstance(objective, OnPlane) else None
-    fitness = objective.objective if plane is not None else objective
-    if not isinstance(fitness, KernelFitness):
+    fitness = kernel_fitness(objective)
+    if fitness is None:
         raise TypeError("refine_kernel: expected a KernelFitness or an OnPlane of one")
     args = fitness.kernel_args()
     c = config
@@ -148,7 +153,7 @@ def _refine_loop(lanes, args, x0, step0, normals, lower, upper, grow, shrink, mi
     the best pose and fitness, the iterations, whether the steps converged, and the best and
     mean fitness of each iteration."""
     population = normals.shape[1]
-    f0 = kernel_values(_plane_maps(x0.reshape(1, 6).copy(), on_plane, q, plane_lower, plane_upper),
+    f0 = kernel_values(_plane_maps(x0.reshape(1, 6), on_plane, q, plane_lower, plane_upper),
                 lanes, args)[0][0]
     best_x = np.minimum(np.maximum(x0, lower), upper)
     best_f = f0
@@ -175,7 +180,7 @@ def _refine_loop(lanes, args, x0, step0, normals, lower, upper, grow, shrink, mi
             X[p, 1] = X[p, 1] * X[p, 2]
             for g in range(6):
                 X[p, g] = min(max(X[p, g], lower[g]), upper[g])
-        maps = _plane_maps(X.copy(), on_plane, q, plane_lower, plane_upper)
+        maps = _plane_maps(X, on_plane, q, plane_lower, plane_upper)
         f = kernel_values(maps, lanes, args)[0]
         i = 0
         total = 0.0

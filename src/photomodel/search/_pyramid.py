@@ -64,7 +64,7 @@ from photomodel.search._gauss_newton import (
     gauss_newton_refine,
     out_of_iterations,
 )
-from photomodel.search._kernel_loops import KernelFitness, OnPlane, refine_kernel
+from photomodel.search._kernel_loops import OnPlane, kernel_fitness, plane_poses, refine_kernel
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._refine import LocalRefine, RefineConfig
 from photomodel.search._space import SearchSpace
@@ -318,10 +318,10 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     q_facing = quat_wxyz_from_matrix(facing)
 
     def on_plane(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return space.clip(facing_pose_vectors(x, q_facing))
+        return plane_poses(x, space, q_facing)
 
     def flat_fitness(level: int, palette_weight: float) -> OnPlane:
-        return OnPlane(fitness_at(level, palette_weight, blur), space, facing)
+        return OnPlane(fitness_at(level, palette_weight, blur), space, q_facing)
 
     if c.ga_with_seeds or not starts:
         ga = BinaryGA(flat, c.ga, rng=gen)
@@ -520,9 +520,8 @@ def _refine_at(objective: Fitness, level: int, x: NDArray[np.float64], space: Se
     2**level; in one numba loop (:func:`refine_kernel`) where the fitness gives its
     kernel."""
     config = refine.scaled(2.0**level)
-    fitness = objective.objective if isinstance(objective, OnPlane) else objective
-    if isinstance(fitness, KernelFitness):
-        return refine_kernel(objective, space, x, config, gen)
+    if kernel_fitness(objective) is not None:
+        return refine_kernel(objective, space, x, config, gen)  # type: ignore[arg-type]
     f0 = float(objective(x[None])[0])
     return run_search(LocalRefine(space, x, f0, config, gen), objective)
 
