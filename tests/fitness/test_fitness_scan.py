@@ -385,6 +385,27 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     np.testing.assert_allclose(value, [0.9, 0.5])
 
 
+
+def test_the_carried_agreements_match_cv2_remap() -> None:
+    """Both cameras' agreement images carried onto a depth's grid: the mean of two
+    ``cv2.remap`` calls per colour (bilinear, constant border 0), pixels off the image and
+    behind the camera (-1) included; the grid's padding stays 0."""
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(5)
+    agree1, agree2 = rng.random((2, 3, 30, 40), dtype=np.float32)
+    u1 = rng.uniform(-3.0, 42.0, (9, 11)).astype(np.float32)
+    v1 = rng.uniform(-3.0, 32.0, (9, 11)).astype(np.float32)
+    u2, v2 = u1 + 0.3, v1 - 0.7
+    u1[0, 0] = v1[0, 1] = -1.0
+    u1[1, 0], v1[1, 0] = 39.0, 29.0     # the last pixel exactly
+    out = np.zeros((3, 12, 15), dtype=np.float32)
+    _scan._carried(agree1, agree2, u1, v1, u2, v2, out)
+    expected = np.stack([0.5 * (cv2.remap(a, u1, v1, cv2.INTER_LINEAR, borderValue=0.0)
+                                + cv2.remap(b, u2, v2, cv2.INTER_LINEAR, borderValue=0.0))
+                         for a, b in zip(agree1, agree2, strict=True)])
+    np.testing.assert_allclose(out[:, :9, :11], expected, atol=1e-6)
+    assert not out[:, 9:].any() and not out[:, :, 11:].any()
+
 @pytest.mark.parametrize("garment", ["No.3", "No.6", "No.12"])
 def test_a_level_4_scan_with_level_3_points_finds_small_and_printed_garments(garment: str) -> None:
     model, features, T_true = _case(garment)
