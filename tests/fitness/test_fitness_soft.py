@@ -43,6 +43,30 @@ def test_log_opponent_matches_its_definition() -> None:
         log_opponent(img[..., 0])
 
 
+
+@pytest.mark.parametrize("shape", [(48, 64), (1, 1), (2, 3), (9, 4)])
+def test_smoothed_log_opponent_is_opencvs_gaussian_blur_on_one_or_two_threads(
+        shape: tuple[int, int]) -> None:
+    """The smoothing runs in numba (rows in bands on the threads, borders reflected as
+    OpenCV's default): ``cv2.GaussianBlur`` of the unsmoothed features to float rounding,
+    images smaller than the kernel included, the same to the bit on any thread count."""
+    import cv2
+    import numba
+
+    img = np.random.default_rng(1).integers(0, 256, (*shape, 3), dtype=np.uint8)
+    plain = log_opponent(img)
+    threads = numba.get_num_threads()
+    try:
+        for sigma in (0.2, 0.7, 1.3):
+            expected = cv2.GaussianBlur(plain, (0, 0), sigma)
+            smoothed = log_opponent(img, sigma)
+            np.testing.assert_allclose(smoothed, expected.reshape(smoothed.shape), atol=3e-6)
+            numba.set_num_threads(1)
+            np.testing.assert_array_equal(log_opponent(img, sigma), smoothed)
+            numba.set_num_threads(threads)
+    finally:
+        numba.set_num_threads(threads)
+
 def test_samples_straddle_the_outline() -> None:
     model = _case("No.6")[0]
     s = model_samples(model, level_spacing(0))
