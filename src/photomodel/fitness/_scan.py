@@ -630,15 +630,35 @@ def _distinct_peaks(peaks: NDArray[np.float64], lower: NDArray[np.float64],
     p = np.asarray(peaks, dtype=np.float64).reshape(-1, 5)
     xyz = np.column_stack([p[:, 3] * p[:, 1], p[:, 4] * p[:, 1], p[:, 1]])
     inside = np.all((xyz >= lower[:3]) & (xyz <= upper[:3]), axis=1)
-    kept: list[tuple[float, float, float, float, float]] = []
-    separation = math.radians(c.min_angle_separation_deg)
-    for score, z, theta, ray_x, ray_y in p[inside].tolist():   # plain floats: a fast loop
-        if all(math.hypot(ray_x - kx, ray_y - ky) > c.min_separation
-               or abs(theta - a) > separation for _, _, a, kx, ky in kept):
-            kept.append((score, z, theta, ray_x, ray_y))
-            if len(kept) >= c.candidates:
-                break
-    poses = np.array([[rx * z, ry * z, z, 0.0, 0.0, math.sin(a / 2)]
-                      for _, z, a, rx, ry in kept]).reshape(-1, 6)
-    scores = np.array([s for s, *_ in kept])
+    kept = p[inside][_greedy_distinct(np.ascontiguousarray(p[inside]), c.min_separation,
+                                       math.radians(c.min_angle_separation_deg),
+                                       c.candidates)]
+    z = kept[:, 1]
+    poses = np.column_stack([kept[:, 3] * z, kept[:, 4] * z, z, np.zeros((len(kept), 2)),
+                             np.sin(kept[:, 2] / 2)])
+    scores = kept[:, 0]
     return ScanResult(poses, scores, maps, bool(len(scores) and scores[0] >= c.trusted_score))
+
+
+@njit(cache=True)
+def _greedy_distinct(peaks, min_separation, min_angle, count):  # pragma: no cover - compiled
+    """Rows of ``peaks`` (N, 5: score, z, angle, ray x, ray y; best first) kept greedily:
+    each unless a kept one lies within ``min_separation`` in camera ray and ``min_angle``
+    in angle; at most ``count``. In numba: a level-4 scan's few hundred peaks took 0.2 ms of
+    Python."""
+    kept = np.empty(count, dtype=np.intp)
+    n = 0
+    for i in range(peaks.shape[0]):
+        if n >= count:
+            break
+        distinct = True
+        for j in range(n):
+            k = kept[j]
+            if (math.hypot(peaks[i, 3] - peaks[k, 3], peaks[i, 4] - peaks[k, 4]) <= min_separation
+                    and abs(peaks[i, 2] - peaks[k, 2]) <= min_angle):
+                distinct = False
+                break
+        if distinct:
+            kept[n] = i
+            n += 1
+    return kept[:n]
