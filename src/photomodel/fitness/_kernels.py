@@ -29,25 +29,30 @@ def exp_neg(y):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
-    if Z <= 0.0:
-        return -1.0e9, -1.0e9
-    x = X / Z
-    y = Y / Z
+    """Pixel (u, v) of the camera point (X, Y, Z) through ``K`` and the 12 rational,
+    tangential and thin-prism terms ``D``; (-1e9, -1e9) behind the camera. Without a branch
+    (behind the camera is a select), so that a loop of it over points vectorises."""
+    front = Z > 0.0
+    Zs = Z if front else 1.0
+    x = X / Zs
+    y = Y / Zs
     r2 = x * x + y * y
     radial = (1.0 + r2 * (D[0] + r2 * (D[1] + r2 * D[4]))) / (
         1.0 + r2 * (D[5] + r2 * (D[6] + r2 * D[7])))
     xd = x * radial + 2.0 * D[2] * x * y + D[3] * (r2 + 2.0 * x * x) + D[8] * r2 + D[9] * r2 * r2
     yd = y * radial + D[2] * (r2 + 2.0 * y * y) + 2.0 * D[3] * x * y + D[10] * r2 + D[11] * r2 * r2
-    return K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]
+    u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
+    v = K[1, 1] * yd + K[1, 2]
+    return (u if front else -1.0e9), (v if front else -1.0e9)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _project_jacobian(X, Y, Z, K, D, jac):  # pragma: no cover - compiled
-    """``_project`` of (X, Y, Z), and ``jac`` (2, 3) = d(u, v) / d(X, Y, Z): the same
-    rational radial, tangential and thin-prism terms, differentiated in closed form."""
-    if Z <= 0.0:
-        return -1.0e9, -1.0e9
-    iz = 1.0 / Z
+def _projection_jacobian(X, Y, Z, K, D):  # pragma: no cover - compiled
+    """``_project`` of (X, Y, Z) and d(u, v) / d(X, Y, Z), by rows: (u, v, du/dX, du/dY,
+    du/dZ, dv/dX, dv/dY, dv/dZ); the same rational radial, tangential and thin-prism terms,
+    differentiated in closed form. Without a branch, as ``_project``."""
+    front = Z > 0.0
+    iz = 1.0 / (Z if front else 1.0)
     x = X * iz
     y = Y * iz
     r2 = x * x + y * y
@@ -69,13 +74,47 @@ def _project_jacobian(X, Y, Z, K, D, jac):  # pragma: no cover - compiled
     u_y = K[0, 0] * xd_y + K[0, 1] * yd_y
     v_x = K[1, 1] * yd_x
     v_y = K[1, 1] * yd_y
-    jac[0, 0] = u_x * iz
-    jac[0, 1] = u_y * iz
-    jac[0, 2] = -(u_x * x + u_y * y) * iz
-    jac[1, 0] = v_x * iz
-    jac[1, 1] = v_y * iz
-    jac[1, 2] = -(v_x * x + v_y * y) * iz
-    return K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]
+    u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
+    v = K[1, 1] * yd + K[1, 2]
+    return ((u if front else -1.0e9), (v if front else -1.0e9), u_x * iz, u_y * iz,
+            -(u_x * x + u_y * y) * iz, v_x * iz, v_y * iz, -(v_x * x + v_y * y) * iz)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _project_jacobian(X, Y, Z, K, D, jac):  # pragma: no cover - compiled
+    """``_project`` of (X, Y, Z), and ``jac`` (2, 3) = d(u, v) / d(X, Y, Z)
+    (:func:`_projection_jacobian`)."""
+    u, v, jac[0, 0], jac[0, 1], jac[0, 2], jac[1, 0], jac[1, 1], jac[1, 2] = \
+        _projection_jacobian(X, Y, Z, K, D)
+    return u, v
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plane_pixels(R, t, K, D, points, out):  # pragma: no cover - compiled
+    """``out`` (2, N) = the pixels (u, v) of the model-plane points ``points`` (N, >= 2)
+    at pose ``(R, t)`` through ``K``, ``D`` (``_project``; -1e9 behind the camera). One
+    loop that vectorises, before the points' bilinear samples: a fifth of the ``soft``
+    fitness's time went to projecting one point at a time."""
+    for j in range(points.shape[0]):
+        x = points[j, 0]
+        y = points[j, 1]
+        out[0, j], out[1, j] = _project(R[0, 0] * x + R[0, 1] * y + t[0],
+                                        R[1, 0] * x + R[1, 1] * y + t[1],
+                                        R[2, 0] * x + R[2, 1] * y + t[2], K, D)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plane_pixel_jacobians(R, t, K, D, points, out):  # pragma: no cover - compiled
+    """``out`` (8, N) = :func:`_projection_jacobian`'s rows for the model-plane points
+    ``points`` (N, >= 2) at pose ``(R, t)``: the pixel and its derivative along the camera
+    point, in one loop that vectorises (as :func:`plane_pixels`)."""
+    for j in range(points.shape[0]):
+        x = points[j, 0]
+        y = points[j, 1]
+        (out[0, j], out[1, j], out[2, j], out[3, j], out[4, j], out[5, j], out[6, j],
+         out[7, j]) = _projection_jacobian(R[0, 0] * x + R[0, 1] * y + t[0],
+                                           R[1, 0] * x + R[1, 1] * y + t[1],
+                                           R[2, 0] * x + R[2, 1] * y + t[2], K, D)
 
 
 @njit(cache=True, inline="always")

@@ -4,7 +4,7 @@ A residual is a bilinear sample of a smoothed feature image less the colour the 
 there (:func:`~photomodel.fitness._soft_kernels._camera_residuals`). Its derivative with
 respect to a gene that moves the sample's camera point ``X`` by ``dX`` is ``dI/du du/dX dX``:
 the bilinear interpolant's slope (from the same four pixels as the sample), the projection's
-Jacobian with the lens distortion (:func:`~photomodel.fitness._kernels._project_jacobian`)
+Jacobian with the lens distortion (:func:`~photomodel.fitness._kernels._projection_jacobian`)
 and the map's derivative. An inner-ring point that expects its colour mixed with the table
 seen at its band point (the edge mixture) also moves with that band point's sample. One pose
 evaluated this way replaces the pose and its forward differences (seven or ten residual
@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 from numba.extending import overload
 
-from photomodel.fitness._kernels import _project_jacobian, exp_neg
+from photomodel.fitness._kernels import exp_neg, plane_pixel_jacobians
 from photomodel.fitness._soft_kernels import (
     _LOGS,
     _OPPONENT,
@@ -60,15 +60,15 @@ def _bilinear_slope(img, u, v, out, du, dv):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _sample_slope(M, t, K, D, x, y, img, out, du, dv, jac):  # pragma: no cover - compiled
-    """``out`` = the sample of ``img`` where model point (x, y) lies under the map (M, t),
-    ``du``, ``dv`` its slopes along the image axes and ``jac`` (2, 3) the pixel's motion
-    with the camera point. False outside the image."""
-    X = M[0, 0] * x + M[0, 1] * y + t[0]
-    Y = M[1, 0] * x + M[1, 1] * y + t[1]
-    Z = M[2, 0] * x + M[2, 1] * y + t[2]
-    u, v = _project_jacobian(X, Y, Z, K, D, jac)
-    return _bilinear_slope(img, u, v, out, du, dv)
+def _sample_slope(proj, j, img, out, du, dv, jac):  # pragma: no cover - compiled
+    """``out`` = the sample of ``img`` at point ``j``'s pixel, ``du``, ``dv`` its slopes
+    along the image axes and ``jac`` (2, 3) the pixel's motion with the camera point, from
+    the points' projections ``proj`` (8, N) (:func:`~photomodel.fitness._kernels.
+    plane_pixel_jacobians`). False outside the image."""
+    for i in range(3):
+        jac[0, i] = proj[2 + i, j]
+        jac[1, i] = proj[5 + i, j]
+    return _bilinear_slope(img, proj[0, j], proj[1, j], out, du, dv)
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -168,14 +168,15 @@ def _to_genes(dX, g9, m9, kron, cross9, gradient, metric, cross_o):  # pragma: n
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scale, table_out,
                              mix_t, lin_in, o, weights, wb_weight, band, band_slope, band_jac,
-                             band_ok, gradient, metric, hess_o, cross_o,
+                             band_ok, proj, gradient, metric, hess_o, cross_o,
                              slope_o):  # pragma: no cover - compiled
     """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
     the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
     :func:`soft_normal_kernel`), summed in the model point's 9-dimensional space (the module
     docstring) and taken to the genes at the end; ``band`` (N_out, 3), ``band_slope`` (N_out,
     3, 2), ``band_jac`` (N_out, 2, 3) and ``band_ok`` are work space: a band point's sample,
-    its slopes and its projection's Jacobian, for the inner ring's edge mixture."""
+    its slopes and its projection's Jacobian, for the inner ring's edge mixture; ``proj``
+    (8, max(N_in, N_out)) too: the points' pixels and their Jacobians, one loop each set."""
     n_in = p_in.shape[0]
     n_out = p_out.shape[0]
     W = np.empty(3)
@@ -202,8 +203,9 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     qu = np.empty(6)
     q3 = np.ones(3)
     _light_gain(o, gain)
+    plane_pixel_jacobians(M, t, K, D, p_out, proj)
     for j in range(n_out):    # the band first: the inner ring's mixture needs it
-        ok = _sample_slope(M, t, K, D, p_out[j, 0], p_out[j, 1], img, sample, du, dv, jac)
+        ok = _sample_slope(proj, j, img, sample, du, dv, jac)
         band_ok[j] = ok
         if not ok:
             continue
@@ -220,10 +222,11 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                       a * weights[n_in + j], a3)
         for c in range(3):
             slope_o[c] -= a * scale[c] * r[c] / n_out
+    plane_pixel_jacobians(M, t, K, D, p_in, proj)
     for j in range(n_in):
         x = p_in[j, 0]
         y = p_in[j, 1]
-        if not _sample_slope(M, t, K, D, x, y, img, sample, du, dv, jac):
+        if not _sample_slope(proj, j, img, sample, du, dv, jac):
             continue
         # The offsets maximise the mean agreement of the plain differences (less the chroma
         # penalty): its Hessian in o and its cross derivative with the genes.
@@ -355,17 +358,18 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
         band_slope = np.empty((n_out, 3, 2))
         band_jac = np.empty((n_out, 2, 3))
         band_ok = np.empty(n_out, dtype=np.bool_)
+        proj = np.empty((8, max(p_in.shape[0], n_out)))
         if cam == 0:
             _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, out_gradient[0], out_metric[0],
+                                     band_ok, proj, out_gradient[0], out_metric[0],
                                      out_hess_o[0], out_cross_o[0], out_slope_o[0])
         else:
             _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, out_gradient[1], out_metric[1],
+                                     band_ok, proj, out_gradient[1], out_metric[1],
                                      out_hess_o[1], out_cross_o[1], out_slope_o[1])
 
 

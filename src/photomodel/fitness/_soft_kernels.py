@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import overload
 
-from photomodel.fitness._kernels import _project, camera2_pose, exp_neg
+from photomodel.fitness._kernels import _project, camera2_pose, exp_neg, plane_pixels
 from photomodel.search._kernel_loops import kernel_values
 
 _OFFSET_ITERATIONS = 3
@@ -124,7 +124,7 @@ def _edge_mixture(model_lin, gain, table, t, out):  # pragma: no cover - compile
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
                   inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff, valid,
-                  band, band_ok, out):  # pragma: no cover - compiled
+                  band, band_ok, pix, out):  # pragma: no cover - compiled
     """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
 
     With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
@@ -134,20 +134,23 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     fraction of the table colour seen at the band point (the blurred edge), once the offsets
     are known; ``lin_in`` (N_in, 3) holds the model colours linear (exp of the log channels
     B', G', R'). ``buf`` (N_in, 3), ``diff`` (3, N_in), ``valid`` (N_in,), ``band`` (N_out,
-    3) and ``band_ok`` (N_out,) are work space: the samples, their differences to the
-    model's colours by channel and whether they fell inside the image (1.0 or 0.0).
+    3), ``band_ok`` (N_out,) and ``pix`` (2, max(N_in, N_out)) are work space: the samples,
+    their differences to the model's colours by channel, whether they fell inside the image
+    (1.0 or 0.0) and the points' pixels.
     """
     use_palette = palette.shape[0] > 0
     n_in = p_in.shape[0]
     sample = np.empty(3)
     o = np.zeros(3)
     n_valid = 0
+    plane_pixels(R, t, K, D, p_out, pix)
     for j in range(p_out.shape[0]):
-        band_ok[j] = _sample_point(R, t, K, D, p_out[j, 0], p_out[j, 1], img, sample)
+        band_ok[j] = _bilinear(img, pix[0, j], pix[1, j], sample)
         for c in range(3):
             band[j, c] = sample[c]
+    plane_pixels(R, t, K, D, p_in, pix)
     for j in range(n_in):
-        ok = _sample_point(R, t, K, D, p_in[j, 0], p_in[j, 1], img, sample)
+        ok = _bilinear(img, pix[0, j], pix[1, j], sample)
         valid[j] = 1.0 if ok else 0.0
         if ok:
             n_valid += 1
@@ -283,12 +286,13 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         valid = np.empty(n_in)
         band = np.empty((p_out.shape[0], 3))
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
+        pix = np.empty((2, max(n_in, p_out.shape[0])))
         for q in range(lane, pairs, lanes):
             p = q // 2
             R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
             _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
                           inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
-                          valid, band, band_ok, out_terms[p, q % 2])
+                          valid, band, band_ok, pix, out_terms[p, q % 2])
     for p in range(Rs.shape[0]):
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
 
