@@ -15,6 +15,7 @@ from photomodel.geometry import (
     in_plane_angle_rad,
     invert_transform,
     make_transform,
+    plane_quat_wxyz,
     pose_vectors_to_matrices,
     quat_wxyz_from_matrix,
     rotation_from_eps,
@@ -321,3 +322,12 @@ def test_strained_matrices_keep_the_pose_and_stretch_the_model_plane() -> None:
     np.testing.assert_array_equal(A[:3, 2:], T[:3, 2:])
     both = strained_matrices(np.repeat(pose, 2, axis=0), [[0, 0, 0], [-0.02, 0.01, 0.005]])
     np.testing.assert_array_equal(both[1], A)
+
+
+@SETTINGS
+@given(quats_wxyz())
+def test_plane_quat_wxyz_keeps_what_quat_wxyz_from_matrix_gives(q: np.ndarray) -> None:
+    R = Rotation.from_quat(q[[1, 2, 3, 0]]).as_matrix()
+    first = plane_quat_wxyz(R)
+    np.testing.assert_array_equal(first, quat_wxyz_from_matrix(R))
+    np.testing.assert_array_equal(plane_quat_wxyz(R.copy()), first)   # kept, same values

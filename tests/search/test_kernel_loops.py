@@ -16,10 +16,12 @@ from photomodel.search import (
     KernelNormalEquations,
     LocalRefine,
     RefineConfig,
+    ResidualFitness,
     SearchSpace,
     gauss_newton_refine,
     run_search,
 )
+from photomodel.search._base import conforms
 from photomodel.search._gauss_newton import NO_ASCENT
 from photomodel.search._kernel_loops import OnPlane, refine_kernel
 
@@ -87,6 +89,18 @@ def test_refine_kernel_needs_a_fitness_with_a_kernel() -> None:
     with pytest.raises(TypeError, match="KernelFitness"):
         refine_kernel(lambda x: np.zeros(len(x)), space, truth, RefineConfig(),  # type: ignore[arg-type]
                       np.random.default_rng(0))
+
+
+def test_conforms_decides_as_isinstance_once_per_type() -> None:
+    level2, _, _, _ = _scene()
+    python_only = _PythonOnly(level2)
+    for _ in range(2):     # the second time from the kept decision
+        for obj in (level2, python_only, lambda x: x, OnPlane(level2, _scene()[3],
+                                                              np.array([1.0, 0, 0, 0]))):
+            for protocol in (KernelFitness, KernelNormalEquations, ResidualFitness):
+                assert conforms(obj, protocol) == isinstance(obj, protocol)
+    assert conforms(level2, KernelNormalEquations)
+    assert not conforms(python_only, KernelFitness)
 
 
 class _PythonOnly:

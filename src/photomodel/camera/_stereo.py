@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,9 +38,10 @@ class StereoRig:
         """(4, 4) transform from camera-1 to camera-2 coordinates."""
         return make_transform(self.R, self.T)
 
-    @property
+    @functools.cached_property
     def R_cam1_facing(self) -> NDArray[np.float64]:
-        """(3, 3) orientation of a plane that faces the rig, in camera 1's frame.
+        """(3, 3) orientation of a plane that faces the rig, in camera 1's frame (read-only;
+        computed once per rig: a stereo pair's search asks for it a dozen times).
 
         Its z axis is the bisector of the two optical axes (away from the cameras), its x axis
         camera 1's x projected onto the plane, y = z x x. A converging rig sees a table it
@@ -49,7 +51,9 @@ class StereoRig:
         z = bisector / np.linalg.norm(bisector)
         x = np.array([1.0, 0.0, 0.0]) - z[0] * z
         x /= np.linalg.norm(x)
-        return np.stack([x, np.cross(z, x), z], axis=-1)
+        facing = np.stack([x, np.cross(z, x), z], axis=-1)
+        facing.setflags(write=False)
+        return facing
 
     @property
     def cameras(self) -> tuple[PinholeCamera, PinholeCamera]:

@@ -31,6 +31,7 @@ averaged. What changes, and why:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -141,6 +142,7 @@ DEFAULT_OPTICS_BLUR_MM = 0.5
 (about 0.6 pixel)."""
 
 
+@functools.lru_cache(maxsize=256)
 def level_spacing(level: int, base: SampleSpacing | None = None,
                   optics_blur_mm: float = DEFAULT_OPTICS_BLUR_MM) -> SampleSpacing:
     """Sample spacing for pyramid ``level``: ``base`` scaled by 2**level, and the model blurs
@@ -149,7 +151,7 @@ def level_spacing(level: int, base: SampleSpacing | None = None,
     ``base.blur_mm`` is the level-0 feature smoothing; ``cv2.pyrDown`` adds about one pixel of
     its input per level, so level k has a feature blur of sqrt((4**k - 1) / 3) level-0 pixels
     on top of it. ``optics_blur_mm`` is the camera's blur of the grey levels, the same at every
-    level."""
+    level. Kept (the arguments are immutable): a search asks for a dozen a stereo pair."""
     base = base or SampleSpacing()
     blur_px = np.sqrt((4.0**level - 1.0) / 3.0 + (base.blur_mm / HAND_MM_PER_PX) ** 2)
     return replace(base.scaled(2.0**level, blur_mm=float(blur_px * HAND_MM_PER_PX)),

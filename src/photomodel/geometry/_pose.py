@@ -8,6 +8,7 @@ internally) does the conversions.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -98,6 +99,20 @@ def quat_wxyz_from_matrix(R: ArrayLike) -> NDArray[np.float64]:
     return -q if q[0] < 0 else q
 
 
+def plane_quat_wxyz(R_cam1_plane: ArrayLike) -> NDArray[np.float64]:
+    """:func:`quat_wxyz_from_matrix` of a plane's orientation (3, 3), kept for the last few
+    planes: a search lays poses on one rig's facing plane many times a stereo pair, and
+    ``Rotation.from_matrix`` costs about half a millisecond a call."""
+    R = np.ascontiguousarray(np.asarray(R_cam1_plane, dtype=np.float64)[:3, :3])
+    return np.array(_plane_quat_wxyz(R.tobytes()))
+
+
+@functools.lru_cache(maxsize=16)
+def _plane_quat_wxyz(R_bytes: bytes) -> tuple[float, float, float, float]:
+    w, a, b, c = quat_wxyz_from_matrix(np.frombuffer(R_bytes, dtype=np.float64).reshape(3, 3))
+    return float(w), float(a), float(b), float(c)
+
+
 def eps_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
     """Quaternion vector part (3,) with non-negative scalar part, inverse of rotation_from_eps."""
     return quat_wxyz_from_matrix(R)[1:]
@@ -133,7 +148,7 @@ def facing_pose_vectors(flat: ArrayLike, facing: ArrayLike) -> NDArray[np.float6
     if f.ndim != 2 or f.shape[1] != 6:    # the kernel does not check its indices
         raise ValueError(f"flat: expected shape (N, 6), got {np.shape(flat)}")
     q_face = np.asarray(facing, dtype=np.float64)
-    w0, a, b, c = quat_wxyz_from_matrix(q_face) if q_face.shape == (3, 3) else q_face
+    w0, a, b, c = plane_quat_wxyz(q_face) if q_face.shape == (3, 3) else q_face
     return _facing(np.ascontiguousarray(f), float(w0), float(a), float(b), float(c))
 
 

@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.geometry import pose_vectors_to_matrices, rotation_from_eps, strained_matrices
-from photomodel.search._base import SearchResult
+from photomodel.search._base import SearchResult, conforms
 from photomodel.search._gauss_newton_loop import (
     CONVERGED,
     NO_ASCENT_CODE,
@@ -322,8 +322,8 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     def value(v: NDArray[np.float64]) -> float:
         return float(values(v[None])[0])
 
-    analytic = c.jacobian == "analytic" and isinstance(fitness, NormalEquationsFitness)
-    if analytic and isinstance(fitness, KernelNormalEquations):
+    analytic = c.jacobian == "analytic" and conforms(fitness, NormalEquationsFitness)
+    if analytic and conforms(fitness, KernelNormalEquations):
         return _refine_in_kernel(fitness, x, free, h, space, prior, level, c)
     weights = (np.zeros(0) if analytic
                else np.asarray(fitness.residual_weights(), dtype=np.float64))

@@ -21,7 +21,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from photomodel.geometry import facing_kernel, facing_pose_vectors, pose_maps_kernel
-from photomodel.search._base import SearchResult
+from photomodel.search._base import SearchResult, conforms
 from photomodel.search._refine import RefineConfig
 from photomodel.search._space import SearchSpace
 
@@ -102,7 +102,7 @@ def kernel_fitness(objective: object) -> KernelFitness | None:
     """The :class:`KernelFitness` that ``objective`` evaluates (itself, or the one an
     :class:`OnPlane` lays on its plane), None where it has no kernel."""
     fitness = objective.objective if isinstance(objective, OnPlane) else objective
-    return fitness if isinstance(fitness, KernelFitness) else None
+    return fitness if conforms(fitness, KernelFitness) else None
 
 
 def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,

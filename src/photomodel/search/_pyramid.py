@@ -51,11 +51,11 @@ from numpy.typing import ArrayLike, NDArray
 from photomodel.geometry import (
     facing_pose_vectors,
     flat_pose_vectors,
-    quat_wxyz_from_matrix,
+    plane_quat_wxyz,
     rotation_from_eps,
     strained_matrices,
 )
-from photomodel.search._base import SearchResult, run_search
+from photomodel.search._base import SearchResult, conforms, run_search
 from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
     NO_ASCENT,
@@ -315,7 +315,7 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
     lo[3:5] = hi[3:5] = 0.0
     flat = SearchSpace(lo, hi)     # genes 4 and 5 unused: flat pose vectors
     facing = np.eye(3) if R_cam1_facing is None else np.asarray(R_cam1_facing, dtype=np.float64)
-    q_facing = quat_wxyz_from_matrix(facing)
+    q_facing = plane_quat_wxyz(facing)
 
     def on_plane(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return plane_poses(x, space, q_facing)
@@ -396,7 +396,7 @@ def _flat_restart(objective: Fitness, last: SearchResult, space: SearchSpace,
     Folds across one side of a garment gather its cloth there, and a uniform strain cannot
     follow them; tilting the model foreshortens that side, and the refinement can end on
     that tilt although a flatter pose fits better."""
-    if not isinstance(objective, ResidualFitness) or last.strain is None:
+    if not conforms(objective, ResidualFitness) or last.strain is None:
         return None, 0
     normal = rotation_from_eps(last.x[3:6])[:, 2]
     tilt_deg = float(np.degrees(np.arccos(np.clip(normal @ facing[:, 2], -1.0, 1.0))))
@@ -423,7 +423,7 @@ def _strained(objective: Fitness, strain: NDArray[np.float64] | None) -> Fitness
     a strained objective needs ``evaluate_transforms`` (:class:`ResidualFitness`)."""
     if strain is None:
         return objective
-    if not isinstance(objective, ResidualFitness):
+    if not conforms(objective, ResidualFitness):
         raise TypeError("fit_strain needs a fitness of transforms (SoftFitness)")
     return lambda poses: objective.evaluate_transforms(strained_matrices(poses, strain))
 
@@ -541,7 +541,7 @@ def _local_at(objective: Fitness, f0: float, level: int, x: NDArray[np.float64],
 
     if not (config.local_method == "gauss-newton" and level <= config.gauss_newton_max_level):
         return cma_from(x, f0, strain)
-    if not isinstance(objective, ResidualFitness):
+    if not conforms(objective, ResidualFitness):
         raise TypeError("local_method 'gauss-newton' needs a fitness with residuals "
                         "(SoftFitness)")
     result = gauss_newton_refine(objective, x, space, level, config.gauss_newton,
