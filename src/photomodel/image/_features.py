@@ -93,7 +93,7 @@ def _reflect101(i, n):  # pragma: no cover - compiled
     return i
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, inline="always")
 def _opponent_row(img, lut, y, out):  # pragma: no cover - compiled
     """Row ``y`` of ``img`` (H, W, 3) uint8 as log-opponent features into ``out`` (3 W,)."""
     for x in range(img.shape[1]):
@@ -104,7 +104,7 @@ def _opponent_row(img, lut, y, out):  # pragma: no cover - compiled
             out[3 * x + k] = _OPPONENT[k, 0] * lb + _OPPONENT[k, 1] * lg + _OPPONENT[k, 2] * lr
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, parallel=True)
 def _smoothed_log_opponent(img, lut, taps, chunks, out):  # pragma: no cover - compiled
     """``out`` (H, W, 3) float32 = the log-opponent features of ``img`` (H, W, 3) uint8
     smoothed by the separable kernel ``taps`` (odd size) with reflected borders: what
