@@ -3,13 +3,11 @@ leave the library as it was, and its comparison measures pose moves."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
+from benchmark_helpers import load_benchmark
 
 import photomodel.locate._locate as locate_module
 import photomodel.search._pyramid as pyramid_module
@@ -17,23 +15,9 @@ from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
 from photomodel.locate import locate
 from photomodel.sim import scene_rng
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
-
-def _load(name: str) -> ModuleType:
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-_load("_meta")
-_load("peer_sift")
-bench_stages = _load("bench_stages")
+load_benchmark("_meta")
+load_benchmark("peer_sift")
+bench_stages = load_benchmark("bench_stages")
 
 
 def test_stages_of_one_scene_add_up_and_the_pose_is_locate_s(tmp_path: Path) -> None:

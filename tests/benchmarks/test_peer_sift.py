@@ -1,41 +1,25 @@
 """The benchmark's SIFT peer (``benchmarks/peer_sift.py``) and its table (``locate_table.py``).
 
-``benchmarks/`` is not a package (its scripts import ``_meta`` as a sibling module), so the
-modules are loaded by path.
+``benchmarks/`` is not a package: its scripts are loaded by path (``benchmark_helpers``).
 """
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
+from benchmark_helpers import load_benchmark
 
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
 from photomodel.geometry import in_plane_angle_rad
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 POSITION_TOL_MM = 2.0
 ANGLE_TOL_DEG = 1.0
 
-
-def _load(name: str) -> ModuleType:
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-peer_sift = _load("peer_sift")
-locate_table = _load("locate_table")
+peer_sift = load_benchmark("peer_sift")
+locate_table = load_benchmark("locate_table")
 
 CONFIG = ExperimentConfig(garments=("No.8", "No.10"), conditions=("paper",), trials=1, seed=0)
 
