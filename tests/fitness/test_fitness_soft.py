@@ -337,15 +337,22 @@ def test_the_navy_trousers_are_found_at_their_depth() -> None:
 
 
 def test_projection_jacobian_matches_differences_with_every_distortion_term() -> None:
-    """``_project_jacobian`` gives ``_project``'s pixel and its derivative, the rational,
-    tangential and thin-prism terms included."""
-    from photomodel.fitness._kernels import _project, _project_jacobian
+    """``_projection_jacobian`` gives ``_project``'s pixel and its derivative, the rational,
+    tangential and thin-prism terms included; ``plane_pixels`` and ``plane_pixel_jacobians``
+    give the same for model-plane points at a pose, a point set at a time."""
+    from photomodel.fitness._kernels import (
+        _project,
+        _projection_jacobian,
+        plane_pixel_jacobians,
+        plane_pixels,
+    )
+    from photomodel.geometry import rotation_from_eps
 
     K = np.array([[800.0, 0.4, 330.0], [0.0, 795.0, 245.0], [0.0, 0.0, 1.0]])
     D = np.array([-0.2, 0.08, 1e-3, -2e-3, -0.01, 0.02, -0.01, 0.005, 1e-3, -5e-4, 2e-3, 1e-4])
-    jac = np.empty((2, 3))
     for X in ([40.0, -30.0, 650.0], [-180.0, 120.0, 700.0], [0.0, 0.0, 500.0]):
-        u, v = _project_jacobian(*X, K, D, jac)
+        u, v, *rows = _projection_jacobian(*X, K, D)
+        jac = np.reshape(rows, (2, 3))
         assert (u, v) == pytest.approx(_project(*X, K, D), abs=1e-9)
         for i in range(3):
             step = np.zeros(3)
@@ -353,6 +360,16 @@ def test_projection_jacobian_matches_differences_with_every_distortion_term() ->
             plus, minus = _project(*(X + step), K, D), _project(*(X - step), K, D)
             np.testing.assert_allclose(jac[:, i], (np.subtract(plus, minus)) / 2e-4,
                                        rtol=1e-6, atol=1e-9)
+    R = rotation_from_eps(np.array([0.05, -0.08, 0.3]))
+    t = np.array([25.0, -40.0, 680.0])
+    points = np.random.default_rng(3).uniform(-120.0, 120.0, (7, 3))
+    pixels, rows = np.empty((2, 7)), np.empty((8, 7))
+    plane_pixels(R, t, K, D, points, pixels)
+    plane_pixel_jacobians(R, t, K, D, points, rows)
+    for j, (x, y, _) in enumerate(points):
+        X = R[:, 0] * x + R[:, 1] * y + t
+        np.testing.assert_allclose(pixels[:, j], _project(*X, K, D), rtol=1e-12)
+        np.testing.assert_allclose(rows[:, j], _projection_jacobian(*X, K, D), rtol=1e-12)
 
 
 def _strained_maps(genes: np.ndarray) -> np.ndarray:

@@ -81,15 +81,6 @@ def _projection_jacobian(X, Y, Z, K, D):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _project_jacobian(X, Y, Z, K, D, jac):  # pragma: no cover - compiled
-    """``_project`` of (X, Y, Z), and ``jac`` (2, 3) = d(u, v) / d(X, Y, Z)
-    (:func:`_projection_jacobian`)."""
-    u, v, jac[0, 0], jac[0, 1], jac[0, 2], jac[1, 0], jac[1, 1], jac[1, 2] = \
-        _projection_jacobian(X, Y, Z, K, D)
-    return u, v
-
-
-@njit(cache=True, inline="always", error_model="numpy")
 def plane_pixels(R, t, K, D, points, out):  # pragma: no cover - compiled
     """``out`` (2, N) = the pixels (u, v) of the model-plane points ``points`` (N, >= 2)
     at pose ``(R, t)`` through ``K``, ``D`` (``_project``; -1e9 behind the camera). One
