@@ -81,17 +81,28 @@ def _projection_jacobian(X, Y, Z, K, D):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _plane_point(R, t, x, y):  # pragma: no cover - compiled
+    """Camera point (X, Y, Z) of the model-plane point ``(x, y)`` at pose ``(R, t)``."""
+    return (R[0, 0] * x + R[0, 1] * y + t[0], R[1, 0] * x + R[1, 1] * y + t[1],
+            R[2, 0] * x + R[2, 1] * y + t[2])
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
+    """Pixel (u, v) where the model-plane point ``(x, y)`` lies at pose ``(R, t)`` through
+    camera ``K``, ``D`` (``_project``)."""
+    X, Y, Z = _plane_point(R, t, x, y)
+    return _project(X, Y, Z, K, D)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def plane_pixels(R, t, K, D, points, out):  # pragma: no cover - compiled
     """``out`` (2, N) = the pixels (u, v) of the model-plane points ``points`` (N, >= 2)
-    at pose ``(R, t)`` through ``K``, ``D`` (``_project``; -1e9 behind the camera). One
-    loop that vectorises, before the points' bilinear samples: a fifth of the ``soft``
+    at pose ``(R, t)`` through ``K``, ``D`` (:func:`plane_pixel`; -1e9 behind the camera).
+    One loop that vectorises, before the points' bilinear samples: a fifth of the ``soft``
     fitness's time went to projecting one point at a time."""
     for j in range(points.shape[0]):
-        x = points[j, 0]
-        y = points[j, 1]
-        out[0, j], out[1, j] = _project(R[0, 0] * x + R[0, 1] * y + t[0],
-                                        R[1, 0] * x + R[1, 1] * y + t[1],
-                                        R[2, 0] * x + R[2, 1] * y + t[2], K, D)
+        out[0, j], out[1, j] = plane_pixel(R, t, K, D, points[j, 0], points[j, 1])
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -100,12 +111,9 @@ def plane_pixel_jacobians(R, t, K, D, points, out):  # pragma: no cover - compil
     ``points`` (N, >= 2) at pose ``(R, t)``: the pixel and its derivative along the camera
     point, in one loop that vectorises (as :func:`plane_pixels`)."""
     for j in range(points.shape[0]):
-        x = points[j, 0]
-        y = points[j, 1]
+        X, Y, Z = _plane_point(R, t, points[j, 0], points[j, 1])
         (out[0, j], out[1, j], out[2, j], out[3, j], out[4, j], out[5, j], out[6, j],
-         out[7, j]) = _projection_jacobian(R[0, 0] * x + R[0, 1] * y + t[0],
-                                           R[1, 0] * x + R[1, 1] * y + t[1],
-                                           R[2, 0] * x + R[2, 1] * y + t[2], K, D)
+         out[7, j]) = _projection_jacobian(X, Y, Z, K, D)
 
 
 @njit(cache=True, inline="always")

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import overload
 
-from photomodel.fitness._kernels import _project, camera2_pose, exp_neg, plane_pixels
+from photomodel.fitness._kernels import camera2_pose, exp_neg, plane_pixel, plane_pixels
 from photomodel.search._kernel_loops import kernel_values
 
 _OFFSET_ITERATIONS = 3
@@ -44,18 +44,10 @@ def _bilinear(img, u, v, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
-    """Pixel (u, v) where the model-plane point ``(x, y)`` lies at pose ``(R, t)`` through
-    camera ``K``, ``D``."""
-    return _project(R[0, 0] * x + R[0, 1] * y + t[0], R[1, 0] * x + R[1, 1] * y + t[1],
-                    R[2, 0] * x + R[2, 1] * y + t[2], K, D)
-
-
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
 def _sample_point(R, t, K, D, x, y, img, out):  # pragma: no cover - compiled
     """``out`` = the bilinear sample of ``img`` where the model-plane point ``(x, y)`` lies at
     pose ``(R, t)`` through camera ``K``, ``D``; False when it falls outside the image."""
-    u, v = _plane_pixel(R, t, K, D, x, y)
+    u, v = plane_pixel(R, t, K, D, x, y)
     return _bilinear(img, u, v, out)
 
 
@@ -401,9 +393,9 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
 def _plane_affine(R, t, K, D, x, y):  # pragma: no cover - compiled
     """Pixel (u, v) of the model-plane point ``(x, y)`` and the pixel steps of 1 mm along the
     model's x and y there (forward differences): (u, v, du_x, dv_x, du_y, dv_y)."""
-    u, v = _plane_pixel(R, t, K, D, x, y)
-    ux, vx = _plane_pixel(R, t, K, D, x + 1.0, y)
-    uy, vy = _plane_pixel(R, t, K, D, x, y + 1.0)
+    u, v = plane_pixel(R, t, K, D, x, y)
+    ux, vx = plane_pixel(R, t, K, D, x + 1.0, y)
+    uy, vy = plane_pixel(R, t, K, D, x, y + 1.0)
     return u, v, ux - u, vx - v, uy - u, vy - v
 
 
