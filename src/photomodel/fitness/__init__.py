@@ -7,7 +7,13 @@ from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_cod
 from photomodel.fitness._light import light_offset_candidates
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
-from photomodel.fitness._scan import ScanConfig, ScanResult, relight_scan, scan_flat_poses
+from photomodel.fitness._scan import (
+    ScanConfig,
+    ScanResult,
+    prepare_scan,
+    relight_scan,
+    scan_flat_poses,
+)
 from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, level_spacing
 
 __all__ = [
@@ -34,6 +40,7 @@ __all__ = [
     "light_offset_candidates",
     "make_fitness",
     "model_samples",
+    "prepare_scan",
     "relight_scan",
     "scan_flat_poses",
     "score_terms",

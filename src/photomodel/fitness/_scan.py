@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -50,14 +50,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness._light import light_offset_candidates
-from photomodel.fitness._samples import SampleSpacing, model_samples
+from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
 from photomodel.geometry import facing_pose_vectors
 from photomodel.model import PhotoModel
 
 _SPECTRA_PER_MODEL = 8
 
-__all__ = ["ScanConfig", "ScanResult", "relight_scan", "scan_flat_poses"]
+__all__ = ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses"]
 
 
 @dataclass(frozen=True)
@@ -252,25 +252,92 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
     return _ranked(model, features, c, merged, margin=np.inf)
 
 
+def prepare_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+                 upper: NDArray[np.float64], config: ScanConfig | None = None) -> None:
+    """Build and keep what :func:`scan_flat_poses` with ``config`` needs of ``model`` beside
+    the images: its kernels' spectra for each depth group and the depths' pinhole grids.
+
+    They depend on the model, the rig, the image size and the box (``lower``, ``upper``)
+    only; a scan builds them at its first use (a level-3 scan 30-40 ms, a level-4 scan
+    10 ms), and :func:`~photomodel.locate.prepare_model` builds them with the model's first
+    stereo pair instead. ``features`` gives the rig and the image size; its images are not
+    read."""
+    c = config or ScanConfig()
+    if not 0 <= c.level < features.levels:
+        raise ValueError(f"level: expected 0..{features.levels - 1}, got {c.level}")
+    labels = _labelled(model, features, c)
+    for _ in _kernel_groups(model, features, np.asarray(lower, dtype=np.float64),
+                            np.asarray(upper, dtype=np.float64), c, labels):
+        pass
+
+
 def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
           upper: NDArray[np.float64], c: ScanConfig, shift: NDArray[np.float64]
           ) -> ScanResult:
     """One scan of :func:`scan_flat_poses`, the garment's colours shifted by ``shift``."""
+    labels = _labelled(model, features, c)
+    palette, weights, colours = labels.samples.palette, labels.weights, labels.colours
+    rig = features.rig
+    targets, weights32 = (palette[colours] + shift).astype(np.float32), weights.astype(np.float32)
+    agree1, agree2 = (_agreements(p[c.level], targets, weights32) for p in features.pyramids)
+    thetas = _angle_grid(lower[5], upper[5], c.theta_step_deg)
+    peaks = [np.zeros((0, 5))]
+    scanned = 0     # depths scanned
+    for kernels, shape, group in _kernel_groups(model, features, lower, upper, c, labels):
+        scanned += len(group)
+        if group:
+            peaks.extend(_group_peaks(group, agree1, agree2, kernels, shape, thetas))
+    peaks = np.concatenate(peaks)
+    peaks = peaks[np.lexsort(-peaks.T[::-1])]    # best score first (ties: farther, ...)
+    found = _distinct_peaks(peaks, lower, upper, c, scanned * len(thetas))
+    # The scan's grid is square to camera 1; a garment on the table faces the rig.
+    found = replace(found, poses=facing_pose_vectors(found.poses, rig.R_cam1_facing),
+                    light_offsets=np.tile(shift, (len(found.poses), 1)))
+    if len(found.poses) <= c.hypotheses:
+        return found
+    return _ranked(model, features, c, found,
+                   margin=c.rank_margin if found.trusted else np.inf)
+
+
+@dataclass(frozen=True)
+class _Labels:
+    """A scan's samples with each one's palette colour (see :func:`_labelled`)."""
+
+    samples: ModelSamples
+    weights: NDArray[np.float64]
+    label_in: NDArray[np.intp]
+    label_out: NDArray[np.intp]
+    colours: NDArray[np.intp]
+
+
+def _labelled(model: PhotoModel, features: StereoFeatures, c: ScanConfig) -> _Labels:
+    """The samples a scan with ``c`` correlates, each labelled with its nearest palette
+    colour (the match's colour weights), and the colours used."""
     samples = model_samples(model, _scan_spacing(c))
-    palette = samples.palette
     m = features.match
     weights = np.array([1 / m.sigma_l**2, 1 / m.sigma_c**2, 1 / m.sigma_c**2])
-    label_in = _nearest(samples.f_in, palette, weights)
-    label_out = _nearest(samples.f_out, palette, weights)
-    colours = np.unique(np.concatenate([label_in, label_out]))
+    label_in = _nearest(samples.f_in, samples.palette, weights)
+    label_out = _nearest(samples.f_out, samples.palette, weights)
+    return _Labels(samples, weights, label_in, label_out,
+                   np.unique(np.concatenate([label_in, label_out])))
 
+
+def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+                   upper: NDArray[np.float64], c: ScanConfig, labels: _Labels
+                   ) -> Iterator[tuple[NDArray[np.complex64], tuple[int, int],
+                                       list[tuple[float, Any]]]]:
+    """The depth groups of a scan with ``c`` (samples ``labels``): each group's kernel
+    spectra (A, C, H, W // 2 + 1), their FFT shape, and its depths inside the box with their
+    pinhole grids (see :func:`_group_peaks`). The spectra and grids depend on the model, the
+    rig, the image size and the box only, and are kept (:func:`_cached`,
+    :func:`_depth_grids`)."""
+    samples, label_in, label_out, colours = (labels.samples, labels.label_in, labels.label_out,
+                                             labels.colours)
+    m = features.match
     K1 = features.camera_matrices(c.level)[0]
     h, w = features.pyramids[0][c.level].shape[:2]
     scale = 0.5**c.level
     rig = features.rig
-    targets, weights32 = (palette[colours] + shift).astype(np.float32), weights.astype(np.float32)
-    agree1, agree2 = (_agreements(p[c.level], targets, weights32) for p in features.pyramids)
-
     zs = _depth_grid(lower[2], upper[2], c.z_step)
     thetas = _angle_grid(lower[5], upper[5], c.theta_step_deg)
     radius_mm = max(np.linalg.norm(samples.p_in[:, :2], axis=1).max(),
@@ -280,8 +347,6 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
     workers = numba.get_num_threads()
     rig_key = tuple(a.tobytes() for a in (rig.cam1.K, rig.cam1.dist, rig.cam2.K, rig.cam2.dist,
                                            rig.R, rig.T))
-    peaks = [np.zeros((0, 5))]
-    scanned = 0     # depths scanned
     for first in range(0, len(zs), c.depths_per_kernel):
         # The group's depths are scanned on pinhole grids whose pixels are as large on the
         # garment as camera 1's are at the group's farthest depth: one set of kernels.
@@ -300,19 +365,7 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
             K_z[:2] *= z / z_ref
             h_z, w_z = int(np.ceil(h * z / z_ref)), int(np.ceil(w * z / z_ref))
             group.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))))
-        scanned += len(group)
-        if group:
-            peaks.extend(_group_peaks(group, agree1, agree2, kernels, shape, thetas))
-    peaks = np.concatenate(peaks)
-    peaks = peaks[np.lexsort(-peaks.T[::-1])]    # best score first (ties: farther, ...)
-    found = _distinct_peaks(peaks, lower, upper, c, scanned * len(thetas))
-    # The scan's grid is square to camera 1; a garment on the table faces the rig.
-    found = replace(found, poses=facing_pose_vectors(found.poses, rig.R_cam1_facing),
-                    light_offsets=np.tile(shift, (len(found.poses), 1)))
-    if len(found.poses) <= c.hypotheses:
-        return found
-    return _ranked(model, features, c, found,
-                   margin=c.rank_margin if found.trusted else np.inf)
+        yield kernels, shape, group
 
 
 def _group_peaks(group: list[tuple[float, tuple[NDArray[np.float64], tuple[Any, ...],

@@ -13,6 +13,7 @@ from photomodel.locate._locate import (
     soft_score,
 )
 from photomodel.locate._overlay import draw_overlay
+from photomodel.locate._prepare import prepare_model
 from photomodel.locate._threshold import (
     THRESHOLD_FILE,
     Threshold,
@@ -36,6 +37,7 @@ __all__ = [
     "load_threshold",
     "locate_in_features",
     "make_optimizer",
+    "prepare_model",
     "save_threshold",
     "soft_score",
 ]

@@ -27,6 +27,7 @@ from photomodel.geometry import (
     quat_wxyz_from_matrix,
     strained_matrices,
 )
+from photomodel.locate._prepare import prepare_model
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import (
@@ -292,7 +293,10 @@ def locate_in_features(
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
     Computing :class:`~photomodel.fitness.StereoFeatures` once and calling this for several
-    models shares the image conversion and pyramids between them (``identify``).
+    models shares the image conversion and pyramids between them (``identify``). A model's
+    first stereo pair with a rig and search box also prepares the model for them
+    (:func:`~photomodel.locate.prepare_model`: its samples at every level and camera blur,
+    its scans' kernels), so that no later pair pays for them.
 
     Parameters
     ----------
@@ -355,6 +359,8 @@ def locate_in_features(
     gen = np.random.default_rng(rng)
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     config = pyramid or PyramidConfig()
+    prepare_model(model, features, space=space, pyramid=config,
+                  scans=(None if scan is not None else coarse_scan, ScanConfig()))
     attempts: list[tuple[PyramidResult, float, float]] = []   # (search, score, evidence)
 
     def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> None:
