@@ -34,11 +34,14 @@ images.
 
 from __future__ import annotations
 
+import functools
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel.fitness._samples import ModelSamples
 from photomodel.fitness._soft import SoftFitness
 
 __all__ = ["NO_SLACK", "ScoreSlack", "ScoreTerms", "edge_evidence", "score_terms"]
@@ -72,6 +75,12 @@ class ScoreSlack:
         steps = np.arange(-n, n + 1) * self.step_mm
         grid = np.stack(np.meshgrid(steps, steps, indexing="ij"), -1).reshape(-1, 2)
         return grid[np.argsort(np.hypot(grid[:, 0], grid[:, 1]), kind="stable")]
+
+
+@functools.lru_cache(maxsize=16)
+def _shifts_mm(slack: ScoreSlack) -> NDArray[np.float64]:
+    """``slack.shifts_mm()``, kept: the same at every score (callers copy it)."""
+    return np.ascontiguousarray(slack.shifts_mm())
 
 
 NO_SLACK = ScoreSlack(max_shift_mm=0.0)
@@ -110,6 +119,26 @@ def _cell_labels(points_mm: NDArray[np.float64], cell_mm: float
     return labels.reshape(-1), int(labels.max()) + 1
 
 
+_CELLS: dict[int, dict[float, tuple[NDArray[np.intp], NDArray[np.intp], int]]] = {}
+
+
+def _sample_cells(samples: ModelSamples, cell_mm: float
+                  ) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
+    """The cells of ``samples``' inner and band points (:func:`_cell_labels`, C-contiguous)
+    and their number, kept per samples object (while it lives): a score asks for the same
+    ones at every pose (0.5 ms a call)."""
+    key = id(samples)
+    if key not in _CELLS:
+        _CELLS[key] = {}
+        weakref.finalize(samples, _CELLS.pop, key, None)
+    if cell_mm not in _CELLS[key]:
+        labels, cells = _cell_labels(np.concatenate([samples.p_in, samples.p_out]), cell_mm)
+        n_in = len(samples.p_in)
+        _CELLS[key][cell_mm] = (np.ascontiguousarray(labels[:n_in]),
+                                np.ascontiguousarray(labels[n_in:]), cells)
+    return _CELLS[key][cell_mm]
+
+
 def score_terms(fitness: SoftFitness, A_cam1_model: NDArray[np.float64],
                 slack: ScoreSlack | None = None) -> ScoreTerms:
     """Fitness, outline evidence and score of a pose (see the module docstring).
@@ -135,9 +164,8 @@ def score_terms(fitness: SoftFitness, A_cam1_model: NDArray[np.float64],
     penalty = float(np.mean(terms[:, 1] - terms[:, 2] - terms[:, 0]))   # the chroma offsets'
     s = fitness.samples
     n_in, n_out = len(s.p_in), len(s.p_out)
-    labels, cells = _cell_labels(np.concatenate([s.p_in, s.p_out]), slack.cell_mm)
-    sums = fitness.slack_sums(A, slack.shifts_mm(), terms[:, 3:], labels[:n_in], labels[n_in:],
-                              cells)
+    cell_in, cell_out, cells = _sample_cells(s, slack.cell_mm)
+    sums = fitness.slack_sums(A, _shifts_mm(slack).copy(), terms[:, 3:], cell_in, cell_out, cells)
     sums = sums.mean(axis=1)                   # (S, 3, C): the cameras' mean
     n_pairs = int(np.count_nonzero(s.table_out >= 0)) if s.table_out is not None else 0
     fit_cell = sums[:, 0] / n_in - sums[:, 1] / max(n_out, 1)
