@@ -28,10 +28,11 @@ main process after the pool has finished, numba and OpenCV at their default thre
 reference machine), on the first ``--timing-trials`` trial(s) of every garment in every
 condition, for ``--timing-methods``; the time ratios peer / default come from this pass. Each
 process warms numba's JIT up (one ``locate`` of each method) before timing. Before the timing
-pass every model meets its rig once (one ``locate`` per garment and lens, timed apart as
-``default_model_preparation``: the first stereo pair builds the model's per-level samples and
-scan kernels, which later pairs reuse), as the peer's model features are computed once and
-not timed.
+pass, and in each pool worker before its first trial, every model meets its rig once (one
+``locate`` per garment and lens; in the timing pass timed apart as
+``default_model_preparation``: the first stereo pair prepares the model,
+:func:`photomodel.locate.prepare_model`, whose samples and scan kernels later pairs reuse), as
+the peer's model features are computed once and not timed.
 
 Output: ``--out`` (JSON: meta, settings, per condition and method statistics, ratios, overall,
 targets) and ``locate_trials.csv`` beside it (one row per trial, method and pass, so every
@@ -224,8 +225,11 @@ def _prepare_models(configs: dict[str, ExperimentConfig], conditions: Sequence[s
     return seconds
 
 
-def _init_worker(config: ExperimentConfig, trial: Trial, methods: Sequence[str]) -> None:
-    """Pool worker: one numba and one OpenCV thread, then a warm-up.
+def _init_worker(config: ExperimentConfig, trial: Trial, methods: Sequence[str],
+                 configs: dict[str, ExperimentConfig], conditions: Sequence[str],
+                 garments: Sequence[str]) -> None:
+    """Pool worker: one numba and one OpenCV thread, then a warm-up and, with the default
+    method, every model prepared for its rigs (as before the timing pass).
 
     As ``photomodel.experiments._trials.limit_threads`` but without setting
     ``NUMBA_NUM_THREADS``: this module has imported numba already (the spawned worker imports
@@ -239,6 +243,8 @@ def _init_worker(config: ExperimentConfig, trial: Trial, methods: Sequence[str])
     numba.set_num_threads(1)
     cv2.setNumThreads(1)
     _warm_up(config, trial, methods)
+    if "default" in methods:
+        _prepare_models(configs, conditions, garments)
 
 
 def _task(config: ExperimentConfig, trial: Trial, methods: Sequence[str]) -> list[dict]:
@@ -535,8 +541,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         left[trial.condition] += 1
     finished = 0
     with ProcessPoolExecutor(max_workers=args.workers, mp_context=get_context("spawn"),
-                             initializer=_init_worker, initargs=(first[0], first[1],
-                                                                 methods)) as pool:
+                             initializer=_init_worker,
+                             initargs=(first[0], first[1], methods, configs, conditions,
+                                       garments)) as pool:
         futures = {pool.submit(_task, *t): t[1].condition for t in tasks}
         for fut in as_completed(futures):
             rows.extend(fut.result())
