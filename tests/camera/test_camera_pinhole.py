@@ -327,3 +327,12 @@ def test_stereo_facing_plane_is_square_to_the_bisector_of_the_optical_axes() -> 
 def test_stereo_facing_plane_of_parallel_cameras_is_square_to_camera_1() -> None:
     rig = StereoRig(_camera(DIST_5), _camera(DIST_5), np.eye(3), np.array([-120.0, 0, 0]))
     np.testing.assert_allclose(rig.R_cam1_facing, np.eye(3), atol=1e-12)
+
+
+def test_stereo_calibration_key_tells_rigs_apart_by_their_calibration() -> None:
+    rig = StereoRig(_camera(DIST_5), _camera(DIST_5), np.eye(3), np.array([-120.0, 0, 0]))
+    same = StereoRig(_camera(DIST_5), _camera(DIST_5), np.eye(3), np.array([-120.0, 0, 0]))
+    moved = StereoRig(_camera(DIST_5), _camera(DIST_5), np.eye(3), np.array([-121.0, 0, 0]))
+    assert rig.calibration_key == same.calibration_key
+    assert rig.calibration_key != moved.calibration_key
+    assert hash(rig.calibration_key) == hash(same.calibration_key)

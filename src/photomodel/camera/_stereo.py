@@ -55,6 +55,14 @@ class StereoRig:
         facing.setflags(write=False)
         return facing
 
+    @functools.cached_property
+    def calibration_key(self) -> tuple[bytes, ...]:
+        """The calibration as a hashable key (both cameras' matrices and distortions, ``R``,
+        ``T``; computed once per rig): the caches of work that depends on the rig key on it."""
+        return tuple(np.ascontiguousarray(a).tobytes()
+                     for a in (self.cam1.K, self.cam1.dist, self.cam2.K, self.cam2.dist,
+                               self.R, self.T))
+
     @property
     def cameras(self) -> tuple[PinholeCamera, PinholeCamera]:
         """(cam1, cam2)."""

@@ -345,8 +345,7 @@ def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[n
     points = [(samples.p_in[:, :2], label_in, 1.0 / len(label_in)),
               (samples.p_out[:, :2], label_out, -1.0 / len(label_out))]
     workers = numba.get_num_threads()
-    rig_key = tuple(a.tobytes() for a in (rig.cam1.K, rig.cam1.dist, rig.cam2.K, rig.cam2.dist,
-                                           rig.R, rig.T))
+    rig_key = rig.calibration_key
     for first in range(0, len(zs), c.depths_per_kernel):
         # The group's depths are scanned on pinhole grids whose pixels are as large on the
         # garment as camera 1's are at the group's farthest depth: one set of kernels.

@@ -51,9 +51,7 @@ def prepare_model(model: PhotoModel, features: StereoFeatures, *,
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     config = pyramid or PyramidConfig()
     rig = features.rig
-    base = (tuple(a.tobytes() for a in (rig.cam1.K, rig.cam1.dist, rig.cam2.K, rig.cam2.dist,
-                                         rig.R, rig.T)),
-            features.pyramids[0][0].shape, features.match)
+    base = (rig.calibration_key, features.pyramids[0][0].shape, features.match)
     items: list[tuple[object, ...]] = []
     top = min(config.coarse_level, features.levels - 1)
     for level in range(config.finest_level, top + 1):
