@@ -35,12 +35,12 @@ images.
 from __future__ import annotations
 
 import functools
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._owned import owned
 from photomodel.fitness._samples import ModelSamples
 from photomodel.fitness._soft import SoftFitness
 
@@ -127,16 +127,13 @@ def _sample_cells(samples: ModelSamples, cell_mm: float
     """The cells of ``samples``' inner and band points (:func:`_cell_labels`, C-contiguous)
     and their number, kept per samples object (while it lives): a score asks for the same
     ones at every pose (0.5 ms a call)."""
-    key = id(samples)
-    if key not in _CELLS:
-        _CELLS[key] = {}
-        weakref.finalize(samples, _CELLS.pop, key, None)
-    if cell_mm not in _CELLS[key]:
+    kept = owned(_CELLS, samples, dict)
+    if cell_mm not in kept:
         labels, cells = _cell_labels(np.concatenate([samples.p_in, samples.p_out]), cell_mm)
         n_in = len(samples.p_in)
-        _CELLS[key][cell_mm] = (np.ascontiguousarray(labels[:n_in]),
-                                np.ascontiguousarray(labels[n_in:]), cells)
-    return _CELLS[key][cell_mm]
+        kept[cell_mm] = (np.ascontiguousarray(labels[:n_in]),
+                         np.ascontiguousarray(labels[n_in:]), cells)
+    return kept[cell_mm]
 
 
 def score_terms(fitness: SoftFitness, A_cam1_model: NDArray[np.float64],

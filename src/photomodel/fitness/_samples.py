@@ -28,7 +28,6 @@ are dropped by a distance-transform check.
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -38,6 +37,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
+from photomodel._owned import owned
 from photomodel.camera import PinholeCamera
 from photomodel.image._features import linear_intensity, log_opponent
 from photomodel.model import PhotoModel
@@ -175,11 +175,7 @@ def model_samples(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
     Cached per model object (while it lives) and spacing: a library of models is sampled
     once, not once per stereo pair. The points are shared by every blur of one spacing.
     """
-    key = id(model)
-    if key not in _CACHE:
-        _CACHE[key] = {}
-        weakref.finalize(model, _CACHE.pop, key, None)
-    per_model = _CACHE[key]
+    per_model = owned(_CACHE, model, dict)
     if spacing not in per_model:
         shape = spacing.geometry
         if shape not in per_model:

@@ -36,7 +36,6 @@ image position or angle, are hypotheses for :func:`~photomodel.search.pyramid_se
 from __future__ import annotations
 
 import math
-import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -48,6 +47,7 @@ import scipy.fft
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._owned import owned
 from photomodel.camera import StereoRig
 from photomodel.fitness._light import light_offset_candidates
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
@@ -433,11 +433,7 @@ def _cached(model: PhotoModel, key: tuple[Any, ...],
     """``make()``, kept per model object (while it lives) under ``key``: the kernels'
     spectra depend on the model, the camera and the search box only, and a cell looks for
     one garment in many stereo pairs. At most ``_SPECTRA_PER_MODEL`` keys per model."""
-    model_id = id(model)
-    if model_id not in _SPECTRA:
-        _SPECTRA[model_id] = OrderedDict()
-        weakref.finalize(model, _SPECTRA.pop, model_id, None)
-    return _kept(_SPECTRA[model_id], key, make, _SPECTRA_PER_MODEL)
+    return _kept(owned(_SPECTRA, model, OrderedDict), key, make, _SPECTRA_PER_MODEL)
 
 
 def _kept(store: OrderedDict[Any, Any], key: Any, make: Callable[[], Any], limit: int) -> Any:

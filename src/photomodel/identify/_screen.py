@@ -13,7 +13,6 @@ the same colours (that is the pose search's work), so it ranks and drops, it doe
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import cv2
@@ -21,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter
 
+from photomodel._owned import owned
 from photomodel.fitness import StereoFeatures
 from photomodel.fitness._soft import HAND_MM_PER_PX
 from photomodel.image._features import log_opponent
@@ -72,11 +72,7 @@ _MODEL_HIST: dict[int, dict[ScreenConfig, NDArray[np.float64]]] = {}
 
 def _model_histogram(model: PhotoModel, config: ScreenConfig) -> NDArray[np.float64]:
     """Histogram of the model photo's garment pixels at the scene level's pixel size."""
-    key = id(model)
-    if key not in _MODEL_HIST:
-        _MODEL_HIST[key] = {}
-        weakref.finalize(model, _MODEL_HIST.pop, key, None)
-    cache = _MODEL_HIST[key]
+    cache = owned(_MODEL_HIST, model, dict)
     if config not in cache:
         K = np.asarray(model.meta.get("camera_K", [[760.0, 0, 0], [0, 760.0, 0], [0, 0, 1]]))
         mm_per_px_model = float(model.meta.get("distance_mm", 400.0)) / float(

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Sequence
 
+from photomodel._owned import owned
 from photomodel.fitness import ScanConfig, SoftFitness, StereoFeatures, prepare_scan
 from photomodel.model import PhotoModel
 from photomodel.search import PyramidConfig, SearchSpace
@@ -61,11 +61,7 @@ def prepare_model(model: PhotoModel, features: StereoFeatures, *,
         items.extend(("samples", level, blur) for blur in sorted(blurs))
     items.extend(("scan", scan, space.lower.tobytes(), space.upper.tobytes()) for scan in scans
                  if scan is not None and scan.level < features.levels)
-    model_id = id(model)
-    if model_id not in _PREPARED:
-        _PREPARED[model_id] = set()
-        weakref.finalize(model, _PREPARED.pop, model_id, None)
-    done = _PREPARED[model_id]
+    done = owned(_PREPARED, model, set)
     todo = [item for item in items if (base, item) not in done]
     for item in todo:
         if item[0] == "samples":
