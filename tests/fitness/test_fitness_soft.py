@@ -424,6 +424,30 @@ def test_normal_equations_match_the_residuals_differences(garment: str, level: i
     np.testing.assert_allclose(m5, m[np.ix_(free, free)], rtol=1e-9, atol=1e-12)
 
 
+def test_normal_equations_are_the_same_on_one_or_two_threads() -> None:
+    """Each camera's sums (the offsets' Hessian and slope included) are its thread's own and
+    reach the outputs once: the same to the bit whether the two cameras run on one thread or
+    side by side (they once summed into outputs that share a cache line, 2x slower)."""
+    import numba
+
+    from photomodel.search._gauss_newton import _map_derivatives
+
+    fitness, x, offsets = _strained_case("No.1", "paper", 0, [0.4, -0.3, 1.0], 0.001,
+                                         [-0.004, 0.002, 0.001])
+    A, dA = _strained_maps(x[None])[0], _map_derivatives(x, np.ones(9, dtype=bool))
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = fitness.normal_equations(A, dA, offsets, with_offsets=True)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = fitness.normal_equations(A, dA, offsets, with_offsets=True)
+    finally:
+        numba.set_num_threads(threads)
+    for a, b in zip(one, two, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.all(np.isfinite(one[0])) and np.abs(one[0]).max() > 0
+
+
 @pytest.mark.parametrize(("garment", "condition", "level"),
                          [("No.6", "paper", 0), ("No.6", "gripper", 1), ("No.1", "paper", 0)])
 def test_the_full_gradient_follows_the_fitness_where_the_held_one_does_not(

@@ -50,3 +50,20 @@ def test_round_trip_and_bad_file(tmp_path: Path) -> None:
         load_threshold(tmp_path / "bad.json")
     with pytest.raises(ValueError, match="min_score"):
         Threshold(1.5)
+
+
+def test_a_file_read_before_is_read_again_when_it_changes(tmp_path: Path) -> None:
+    """``load_threshold`` keeps a file's text while it is unchanged (``locate`` asks for it
+    with every pair), and reads it again after a new calibration is saved or the file is
+    rewritten in place; what it returns is the caller's own."""
+    p = save_threshold(Threshold(0.42, {"source": "first"}), tmp_path / "t.json")
+    first = load_threshold(p)
+    first.metadata["source"] = "changed by a caller"
+    assert load_threshold(p) == Threshold(0.42, {"source": "first"})
+    save_threshold(Threshold(0.55, {"source": "second"}), p)
+    assert load_threshold(p) == Threshold(0.55, {"source": "second"})
+    p.write_text('{"min_score": 0.61, "metadata": {"source": "third, in place"}}\n')
+    assert load_threshold(p) == Threshold(0.61, {"source": "third, in place"})
+    p.unlink()
+    with pytest.raises(InputError, match="not found"):
+        load_threshold(p)
