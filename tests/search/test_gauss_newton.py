@@ -212,6 +212,34 @@ def test_gauss_newton_refines_a_rendered_garment_from_a_pixel_away(jacobian: str
         assert result.fitness >= f_truth - 0.005 and result.evaluations < 200
 
 
+@pytest.mark.parametrize("jacobian", ["analytic", "differences"])
+def test_a_start_the_caller_evaluated_is_not_evaluated_again(jacobian: str) -> None:
+    """Given the fitness and light offsets at the start (the pyramid's blur choice evaluated
+    it), Gauss-Newton walks the same way to the same pose with one evaluation fewer; a start
+    outside the box is clipped and evaluated as before."""
+    model, features, T = _case("No.1")
+    fitness = SoftFitness(model, features, 0)
+    config = GaussNewtonConfig(jacobian=jacobian)  # type: ignore[arg-type]
+    x0 = np.concatenate([T[:3, 3] + [0.4, -0.3, 1.0], eps_from_rotation(T[:3, :3]) + 0.001])
+    strain = np.array([-0.004, 0.002, 0.001])
+    f0 = float(fitness.evaluate_transforms(strained_matrices(x0[None], strain))[0])
+    start = (f0, fitness.last_offsets())
+    alone = gauss_newton_refine(fitness, x0, SPACE, config=config, strain=strain)
+    started = gauss_newton_refine(fitness, x0, SPACE, config=config, strain=strain, start=start)
+    np.testing.assert_array_equal(started.x, alone.x)
+    np.testing.assert_array_equal(started.strain, alone.strain)
+    assert started.fitness == alone.fitness and started.iterations == alone.iterations
+    assert started.evaluations == alone.evaluations - 1
+    outside = x0.copy()
+    outside[2] = SPACE.upper[2] + 5.0
+    wrong = (f0 + 1.0, start[1])    # not the clipped pose's: must not be used
+    clipped = gauss_newton_refine(fitness, outside, SPACE, config=config, strain=strain,
+                                  start=wrong)
+    plain = gauss_newton_refine(fitness, outside, SPACE, config=config, strain=strain)
+    np.testing.assert_array_equal(clipped.x, plain.x)
+    assert clipped.evaluations == plain.evaluations and clipped.fitness < f0 + 1.0
+
+
 def test_the_pyramid_names_its_local_methods() -> None:
     with pytest.raises(ValueError, match="local_method"):
         PyramidConfig(local_method="newton")  # type: ignore[arg-type]

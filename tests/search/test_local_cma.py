@@ -71,11 +71,12 @@ def test_the_blur_changes_only_when_a_candidate_fits_clearly_better() -> None:
     config = PyramidConfig(optics_blur_candidates_mm=(0.0, 0.5, 1.4, 2.8))
     x = TARGET
     sharp = {0.0: 0.30, 0.5: 0.31, 1.4: 0.62, 2.8: 0.50}     # a print in a blurred scene
-    blur, fit, f0, used = _sharpest_fit(_fitness_at(sharp), 0, x, config, 0.5)
+    blur, fit, (f0, offsets), used = _sharpest_fit(_fitness_at(sharp), 0, x, config, 0.5)
     assert blur == 1.4 and fit(x[None])[0] == 0.62 and f0 == 0.62
+    assert offsets is None      # a fitness without light offsets
     assert used == 4  # the current blur is one of the candidates: evaluated once
     flat = {0.0: 0.905, 0.5: 0.90, 1.4: 0.91, 2.8: 0.915}    # a plain garment: noise only
-    blur, fit, f0, _ = _sharpest_fit(_fitness_at(flat), 0, x, config, 0.5)
+    blur, fit, (f0, _), _ = _sharpest_fit(_fitness_at(flat), 0, x, config, 0.5)
     assert blur == 0.5 and fit(x[None])[0] == 0.90 and f0 == 0.90
     none = PyramidConfig(optics_blur_candidates_mm=())
     assert _sharpest_fit(_fitness_at(sharp), 0, x, none, 2.8)[0] == 2.8
@@ -87,7 +88,7 @@ def test_the_blur_climb_finds_the_peak_with_fewer_evaluations() -> None:
     peaked = {0.5: 0.30, 0.7: 0.36, 1.0: 0.45, 1.4: 0.62, 2.0: 0.55, 2.8: 0.40}
     every = _sharpest_fit(_fitness_at(peaked), 0, x, config, 0.7)
     climbed = _sharpest_fit(_fitness_at(peaked), 0, x, config, 0.7, climb=True)
-    assert every[0] == climbed[0] == 1.4 and climbed[2] == 0.62
+    assert every[0] == climbed[0] == 1.4 and climbed[2][0] == 0.62
     assert every[3] == 6 and climbed[3] == 5    # 0.7, 0.5 (lower), 1.0, 1.4, 2.0
     # Staying put costs the two neighbours, one at the grid's end.
     assert _sharpest_fit(_fitness_at(peaked), 0, x, config, 1.4, climb=True)[::3] == (1.4, 3)

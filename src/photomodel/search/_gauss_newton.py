@@ -266,7 +266,9 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
                         space: SearchSpace, level: int = 0,
                         config: GaussNewtonConfig | None = None,
                         free: NDArray[np.bool_] | None = None,
-                        strain: ArrayLike | None = None) -> SearchResult:
+                        strain: ArrayLike | None = None,
+                        start: tuple[float, NDArray[np.float64]] | None = None
+                        ) -> SearchResult:
     """Refine pose ``x0`` (6,) to the nearest peak of ``fitness`` (see the module docstring).
 
     Parameters
@@ -286,6 +288,11 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
         Start in-plane strain of the model (:func:`~photomodel.geometry.strained_matrices`):
         when given, the strain is refined with the pose (three more genes, within
         ``config.max_strain``) and returned in the result's ``strain``.
+    start : (float, ndarray (2, 3)), optional
+        The fitness at ``x0`` (with ``strain``) and the light offsets it found there, when
+        the caller evaluated it (the pyramid's blur choice does): the refinement starts from
+        them instead of evaluating ``x0`` again. Ignored where ``x0`` or ``strain`` lies
+        outside the box (the start is clipped, so it is another pose).
 
     Returns
     -------
@@ -295,7 +302,9 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     """
     c = config or GaussNewtonConfig()
     free = np.ones(6, dtype=bool) if free is None else np.asarray(free, dtype=bool)
-    x = space.clip(np.asarray(x0, dtype=np.float64).reshape(6))
+    x0_given = np.asarray(x0, dtype=np.float64).reshape(6)
+    strain_given = None if strain is None else np.asarray(strain, dtype=np.float64).reshape(3)
+    x = space.clip(x0_given)
     h = np.asarray(c.difference_steps) * 2.0**level
     strained = strain is not None
     if strained:
@@ -322,18 +331,26 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
     def value(v: NDArray[np.float64]) -> float:
         return float(values(v[None])[0])
 
+    if start is not None and not (np.array_equal(x[:6], x0_given)
+                                  and (not strained or np.array_equal(x[6:], strain_given))):
+        start = None     # clipped: another pose than the one evaluated
     analytic = c.jacobian == "analytic" and conforms(fitness, NormalEquationsFitness)
     if analytic and conforms(fitness, KernelNormalEquations):
-        return _refine_in_kernel(fitness, x, free, h, space, prior, level, c)
+        return _refine_in_kernel(fitness, x, free, h, space, prior, level, c, start)
     weights = (np.zeros(0) if analytic
                else np.asarray(fitness.residual_weights(), dtype=np.float64))
     # The strain's Jacobian from the translation's (no residual poses of its own).
     by_points = strained and not c.strain_by_differences and not analytic
     points = (np.ascontiguousarray(fitness.residual_points()[:, :2], dtype=np.float64)
               if by_points else np.zeros((0, 2)))
-    f = value(x)
-    offsets = fitness.last_offsets()
-    evaluations = 1
+    if start is None:
+        f = value(x)
+        offsets = fitness.last_offsets()
+        evaluations = 1
+    else:
+        f = start[0] - float(prior_values(x[None], prior)[0])
+        offsets = np.array(start[1], dtype=np.float64).reshape(2, 3)
+        evaluations = 0
     history = [f]
     damping = c.damping0
     reason = out_of_iterations(c)
@@ -403,17 +420,21 @@ def gauss_newton_refine(fitness: ResidualFitness, x0: NDArray[np.float64],
 
 def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],
                       free: NDArray[np.bool_], h: NDArray[np.float64], space: SearchSpace,
-                      prior: NDArray[np.float64], level: int, c: GaussNewtonConfig
+                      prior: NDArray[np.float64], level: int, c: GaussNewtonConfig,
+                      start: tuple[float, NDArray[np.float64]] | None = None
                       ) -> SearchResult:
     """The analytic refinement's iterations in numba (:mod:`._gauss_newton_loop`) from genes
-    ``x`` (clipped; nine with the strain)."""
+    ``x`` (clipped; nine with the strain), where the fitness and offsets are ``start`` when
+    known."""
+    f_start, offsets_start = (np.nan, np.zeros((2, 3))) if start is None else start
     x, f, evaluations, trace, code = gauss_newton_loop(
         numba.get_num_threads(), fitness.kernel_args(), fitness.normal_args(), x, free, h,
         np.ascontiguousarray(space.lower, dtype=np.float64),
         np.ascontiguousarray(space.upper, dtype=np.float64), c.max_strain, prior,
         c.max_iterations, c.converged_steps, c.min_gain * c.min_gain_per_level**level,
         c.min_gain_steps, c.damping0, c.max_damping, c.rejected_damping, c.min_step,
-        c.difference_on_stall, c.offsets_in_gradient, c.extrapolation)
+        c.difference_on_stall, c.offsets_in_gradient, c.extrapolation, float(f_start),
+        np.ascontiguousarray(offsets_start, dtype=np.float64).reshape(2, 3))
     reason = {CONVERGED: "gauss-newton: converged", NO_ASCENT_CODE: NO_ASCENT}.get(
         code, out_of_iterations(c))
     f += float(prior_values(x[None], prior)[0])     # the fitness itself

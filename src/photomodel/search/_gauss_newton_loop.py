@@ -209,14 +209,21 @@ def _fitness_gradient(lanes, args, x, f, h, free, prior):  # pragma: no cover
 def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                       upper, max_strain, prior, max_iterations, converged_steps, min_gain,
                       min_gain_steps, damping0, max_damping, rejected_damping, min_step,
-                      difference_on_stall, with_offsets,
-                      most):  # pragma: no cover - compiled
+                      difference_on_stall, with_offsets, most, f_start,
+                      offsets_start):  # pragma: no cover - compiled
     """``gauss_newton_refine``'s iterations with the analytic Jacobian from gene vector ``x``
     (already clipped): the last accepted genes, their fitness less the prior, the
-    evaluations, the fitness history and the stop code."""
-    f, offsets = _values(lanes, vargs, x.reshape(1, -1), prior)
-    f = f[0]
-    evaluations = 1
+    evaluations, the fitness history and the stop code. ``f_start`` and ``offsets_start``
+    (2, 3): the fitness at ``x`` (itself, not less the prior) and its light offsets, when
+    the caller evaluated it (NaN: evaluate it here)."""
+    if np.isnan(f_start):
+        f, offsets = _values(lanes, vargs, x.reshape(1, -1), prior)
+        f = f[0]
+        evaluations = 1
+    else:
+        f = f_start - prior_values(x.reshape(1, -1), prior)[0]
+        offsets = offsets_start.copy()
+        evaluations = 0
     history = np.empty(max_iterations + 1)
     history[0] = f
     accepted = 0
