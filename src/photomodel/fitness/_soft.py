@@ -40,6 +40,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._owned import owned
 from photomodel.camera import StereoRig
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._soft_jacobian import soft_normal_equations
@@ -120,6 +121,7 @@ class StereoFeatures:
         sigma = self.match.smooth_sigma_px
         self.pyramids = (feature_pyramid(log_opponent(right_bgr, sigma), levels),
                          feature_pyramid(log_opponent(left_bgr, sigma), levels))
+        self._cameras: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
 
     @property
     def levels(self) -> int:
@@ -127,9 +129,12 @@ class StereoFeatures:
         return len(self.pyramids[0])
 
     def camera_matrices(self, level: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Camera matrices (3, 3) of both cameras at ``level`` (first two rows / 2**level)."""
-        scale = np.diag([0.5**level, 0.5**level, 1.0])
-        return scale @ self.rig.cam1.K, scale @ self.rig.cam2.K
+        """Camera matrices (3, 3) of both cameras at ``level`` (first two rows / 2**level),
+        C-contiguous float64; computed once a level (a search builds a dozen fitnesses)."""
+        if level not in self._cameras:
+            scale = np.diag([0.5**level, 0.5**level, 1.0])
+            self._cameras[level] = (_f64(scale @ self.rig.cam1.K), _f64(scale @ self.rig.cam2.K))
+        return self._cameras[level]
 
 
 HAND_MM_PER_PX = 0.86
@@ -161,6 +166,42 @@ def level_spacing(level: int, base: SampleSpacing | None = None,
 def _f64(a: NDArray[np.floating] | NDArray[np.integer]) -> NDArray[np.float64]:
     """``a`` as a C-contiguous float64 array."""
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class _SampleArrays:
+    """What the kernels take of one ``ModelSamples``, in their types: the points and colours
+    (float64), each inner point's band point of the edge mixture (int64, -1: none) and the
+    table of a fitness without it (all -1), the inner colours linear and each camera's half
+    of the signed residual weights."""
+
+    points: tuple[NDArray[np.float64], ...]
+    table_out: NDArray[np.int64]
+    no_table: NDArray[np.int64]
+    lin_in: NDArray[np.float64]
+    half_weights: NDArray[np.float64]
+
+
+_SAMPLE_ARRAYS: dict[int, _SampleArrays] = {}
+_NO_PALETTE = np.zeros((0, 3))
+
+
+def _sample_arrays(samples: ModelSamples) -> _SampleArrays:
+    """:class:`_SampleArrays` of ``samples``, kept while they live: a pair's search builds a
+    dozen fitnesses of the same samples (0.1-0.3 ms each in a pair, most of it these
+    arrays)."""
+    def make() -> _SampleArrays:
+        n_in, n_out = len(samples.p_in), len(samples.p_out)
+        none = np.full(n_in, -1, dtype=np.int64)
+        table = samples.table_out if samples.table_out is not None else none
+        weights = np.concatenate([np.full(n_in, 1.0 / n_in),
+                                  np.full(n_out, -1.0 / max(n_out, 1))])
+        return _SampleArrays(
+            tuple(_f64(a) for a in (samples.p_in, samples.f_in, samples.p_out, samples.f_out)),
+            np.ascontiguousarray(table, dtype=np.int64), none, _f64(samples.lin_in),
+            _f64(weights / 2.0))
+
+    return owned(_SAMPLE_ARRAYS, samples, make)
 
 
 class SoftFitness:
@@ -202,33 +243,36 @@ class SoftFitness:
         self.K1, self.K2 = features.camera_matrices(level)
         m = features.match
         self._args = (1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2, float(m.wb_weight))
+        arrays = _sample_arrays(self.samples)
         self.edge_mix_fraction = 0.0
-        self._table_out = np.full(len(self.samples.p_in), -1, dtype=np.intp)
+        self._table_out = arrays.no_table
         if m.edge_mix and self.samples.table_out is not None:
             sigma = float(np.hypot(spacing.optics_blur_mm, m.edge_blur_mm))
             fraction = 0.5 * math.erfc(spacing.ring_mm / sigma / math.sqrt(2.0))
             self.edge_mix_fraction = fraction if fraction >= m.min_edge_mix else 0.0
-            self._table_out = self.samples.table_out
-        self._lin_in = self.samples.lin_in
-        self._half_weights = self.residual_weights() / 2.0    # each camera's half
+            self._table_out = arrays.table_out
+        self._lin_in = arrays.lin_in
+        self._half_weights = arrays.half_weights    # each camera's half
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
         # The kernels' arguments, each of one fixed type (C-contiguous float64, the images
-        # float32, the table int64): one compiled specialisation of every numba loop.
-        rig, s = features.rig, self.samples
-        geometry = tuple(_f64(a) for a in (rig.R, rig.T, self.K1, rig.cam1.distortion12,
-                                           self.K2, rig.cam2.distortion12))
-        points = tuple(_f64(a) for a in (s.p_in, s.f_in, s.p_out, s.f_out))
+        # float32, the table int64): one compiled specialisation of every numba loop. The
+        # samples' arrays are kept with them (_sample_arrays), the cameras' with the features.
+        rig = features.rig
+        geometry = (rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
+                    rig.cam2.distortion12)
+        if not all(a.dtype == np.float64 and a.flags.c_contiguous for a in geometry):
+            geometry = tuple(_f64(a) for a in geometry)
         images = tuple(np.ascontiguousarray(p[level], dtype=np.float32)
                        for p in features.pyramids)
-        table = np.ascontiguousarray(self._table_out, dtype=np.int64)
         inv_var_l, inv_var_c, wb_weight = self._args
+        palette = _f64(self.palette) if palette_weight > 0 else _NO_PALETTE
         self._kernel_args = (
-            *geometry, *points, _f64(self.palette), self.palette_weight, *images,
-            inv_var_l, inv_var_c, wb_weight, table, float(self.edge_mix_fraction),
-            _f64(self._lin_in))
+            *geometry, *arrays.points, palette, self.palette_weight, *images,
+            inv_var_l, inv_var_c, wb_weight, self._table_out, float(self.edge_mix_fraction),
+            self._lin_in)
         self._normal_args = (
-            *geometry, *points, *images, math.sqrt(inv_var_l), math.sqrt(inv_var_c), table,
-            float(self.edge_mix_fraction), _f64(self._lin_in), _f64(self._half_weights),
+            *geometry, *arrays.points, *images, math.sqrt(inv_var_l), math.sqrt(inv_var_c),
+            self._table_out, float(self.edge_mix_fraction), self._lin_in, self._half_weights,
             wb_weight)
 
     def score(self, fitness: float) -> float:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -363,14 +364,16 @@ def locate_in_features(
                   scans=(None if scan is not None else coarse_scan, ScanConfig()))
     attempts: list[tuple[PyramidResult, float, float]] = []   # (search, score, evidence)
 
+    @functools.cache
+    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
+        """One fitness object per (level, palette weight, blur) for every search and score
+        of this pair."""
+        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
+
     def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> None:
-        attempt = pyramid_search(
-            lambda level, weight, blur: SoftFitness(model, features, level,
-                                                    palette_weight=weight, optics_blur_mm=blur),
-            space, settings, rng=gen, seeds=seeds, R_cam1_facing=features.rig.R_cam1_facing)
-        terms = score_terms(SoftFitness(model, features, 0,
-                                        optics_blur_mm=attempt.optics_blur_mm),
-                            _affine(attempt))
+        attempt = pyramid_search(fitness_at, space, settings, rng=gen, seeds=seeds,
+                                 R_cam1_facing=features.rig.R_cam1_facing)
+        terms = score_terms(fitness_at(0, 0.0, attempt.optics_blur_mm), _affine(attempt))
         attempts.append((attempt, terms.score, terms.edge_evidence))
 
     if scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
