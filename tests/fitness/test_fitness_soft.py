@@ -67,6 +67,31 @@ def test_smoothed_log_opponent_is_opencvs_gaussian_blur_on_one_or_two_threads(
     finally:
         numba.set_num_threads(threads)
 
+def test_fitnesses_of_one_pair_share_their_samples_arrays_and_cameras() -> None:
+    """A search builds a dozen fitnesses of one pair: the samples' kernel arrays are made once
+    per samples object and the camera matrices once per level, and each fitness evaluates as
+    one with arrays of its own."""
+    from photomodel.fitness._soft import _sample_arrays
+
+    model, rig, right, left, T, _ = _case("No.1", "paper")
+    features = StereoFeatures(rig, right, left)
+    a = SoftFitness(model, features, 1)
+    b = SoftFitness(model, features, 1, palette_weight=0.3)
+    assert a.samples is b.samples
+    assert all(x is y for x, y in zip(a.kernel_args()[6:10], b.kernel_args()[6:10], strict=True))
+    assert a.K1 is b.K1 and features.camera_matrices(1)[1] is a.K2
+    np.testing.assert_array_equal(a.K1[:2], rig.cam1.K[:2] / 2)
+    arrays = _sample_arrays(a.samples)
+    np.testing.assert_array_equal(arrays.half_weights, a.residual_weights() / 2)
+    assert arrays.table_out.dtype == np.int64 and np.all(arrays.no_table == -1)
+    poses = T @ pose_vectors_to_matrices(np.array([[0.5, -0.3, 1.0, 0.001, 0.0, 0.002]]))
+    shared = a.evaluate_transforms(np.concatenate([T[None], poses]))
+    other = SoftFitness(model, StereoFeatures(rig, right, left), 1)
+    assert other.K1 is not a.K1
+    np.testing.assert_array_equal(other.evaluate_transforms(np.concatenate([T[None], poses])),
+                                  shared)
+
+
 def test_samples_straddle_the_outline() -> None:
     model = _case("No.6")[0]
     s = model_samples(model, level_spacing(0))
