@@ -230,6 +230,14 @@ def test_a_start_the_caller_evaluated_is_not_evaluated_again(jacobian: str) -> N
     np.testing.assert_array_equal(started.strain, alone.strain)
     assert started.fitness == alone.fitness and started.iterations == alone.iterations
     assert started.evaluations == alone.evaluations - 1
+    # Its own evaluation at the end, as the fitness returns it there (the pyramid's blur
+    # check takes it instead of evaluating again).
+    assert jacobian == "differences" or alone.at_x is not None
+    if alone.at_x is not None:
+        end = float(fitness.evaluate_transforms(strained_matrices(alone.x[None],
+                                                                  alone.strain))[0])
+        assert alone.at_x[0] == end
+        np.testing.assert_array_equal(alone.at_x[1], fitness.last_offsets())
     outside = x0.copy()
     outside[2] = SPACE.upper[2] + 5.0
     wrong = (f0 + 1.0, start[1])    # not the clipped pose's: must not be used

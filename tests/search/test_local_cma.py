@@ -94,6 +94,16 @@ def test_the_blur_climb_finds_the_peak_with_fewer_evaluations() -> None:
     assert _sharpest_fit(_fitness_at(peaked), 0, x, config, 1.4, climb=True)[::3] == (1.4, 3)
     falling = {b: 1.0 - b for b in peaked}
     assert _sharpest_fit(_fitness_at(falling), 0, x, config, 0.5, climb=True)[::3] == (0.5, 2)
+    # A blur whose value the caller has is taken, not evaluated (nor counted).
+    calls: list[float] = []
+
+    def counting(level: int, weight: float, blur: float):  # type: ignore[no-untyped-def]
+        calls.append(blur)
+        return _fitness_at(peaked)(level, weight, blur)
+
+    taken = _sharpest_fit(counting, 0, x, config, 1.4, climb=True,
+                          known={1.4: (0.62, np.zeros((2, 3)))})
+    assert taken[0] == 1.4 and taken[3] == 2 and 1.4 not in calls[:2]
     # A current blur off the grid: every candidate, as without the climb.
     assert _sharpest_fit(_fitness_at({**peaked, 0.6: 0.3}), 0, x, config, 0.6,
                          climb=True)[::3] == (1.4, 7)

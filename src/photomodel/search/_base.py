@@ -33,6 +33,10 @@ class SearchResult:
     strain : ndarray (3,) or None
         In-plane strain ``(e_xx, e_yy, e_xy)`` of the model found with the pose
         (:func:`~photomodel.geometry.strained_matrices`), for searches that fit one.
+    at_x : (float, ndarray (2, 3)) or None
+        The fitness's own evaluation at ``x`` (with ``strain``), as it returned it, and the
+        light offsets it found there, where the search kept them (Gauss-Newton on the
+        ``soft`` fitness): a caller that would evaluate ``x`` again can take them.
     """
 
     x: NDArray[np.float64]
@@ -43,6 +47,7 @@ class SearchResult:
     best_history: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     mean_history: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     strain: NDArray[np.float64] | None = None
+    at_x: tuple[float, NDArray[np.float64]] | None = None
 
 
 class Optimizer(Protocol):

@@ -427,7 +427,7 @@ def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],
     ``x`` (clipped; nine with the strain), where the fitness and offsets are ``start`` when
     known."""
     f_start, offsets_start = (np.nan, np.zeros((2, 3))) if start is None else start
-    x, f, evaluations, trace, code = gauss_newton_loop(
+    x, f, evaluations, trace, code, raw, offsets = gauss_newton_loop(
         numba.get_num_threads(), fitness.kernel_args(), fitness.normal_args(), x, free, h,
         np.ascontiguousarray(space.lower, dtype=np.float64),
         np.ascontiguousarray(space.upper, dtype=np.float64), c.max_strain, prior,
@@ -439,7 +439,8 @@ def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],
         code, out_of_iterations(c))
     f += float(prior_values(x[None], prior)[0])     # the fitness itself
     return SearchResult(x[:6].copy(), float(f), evaluations, len(trace) - 1, reason, trace,
-                        trace, strain=x[6:].copy() if len(x) > 6 else None)
+                        trace, strain=x[6:].copy() if len(x) > 6 else None,
+                        at_x=(float(raw), offsets.copy()))
 
 
 def out_of_iterations(config: GaussNewtonConfig) -> str:

@@ -182,9 +182,10 @@ def clip_genes(v, lower, upper, max_strain):  # pragma: no cover - compiled
 
 @njit(cache=True, error_model="numpy")
 def _values(lanes, args, V, prior):  # pragma: no cover - compiled
-    """The fitness less the prior (P,) of gene vectors ``V`` and the first one's offsets."""
+    """The fitness less the prior (P,) of gene vectors ``V``, the first one's offsets and
+    the first one's fitness itself."""
     f, offsets = kernel_values(_gene_maps(V), lanes, args)
-    return f - prior_values(V, prior), offsets[0].copy()
+    return f - prior_values(V, prior), offsets[0].copy(), f[0]
 
 
 @njit(cache=True, error_model="numpy")
@@ -213,14 +214,16 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                       offsets_start):  # pragma: no cover - compiled
     """``gauss_newton_refine``'s iterations with the analytic Jacobian from gene vector ``x``
     (already clipped): the last accepted genes, their fitness less the prior, the
-    evaluations, the fitness history and the stop code. ``f_start`` and ``offsets_start``
+    evaluations, the fitness history, the stop code, and the fitness itself at the last
+    accepted genes with the light offsets found there. ``f_start`` and ``offsets_start``
     (2, 3): the fitness at ``x`` (itself, not less the prior) and its light offsets, when
     the caller evaluated it (NaN: evaluate it here)."""
     if np.isnan(f_start):
-        f, offsets = _values(lanes, vargs, x.reshape(1, -1), prior)
+        f, offsets, raw = _values(lanes, vargs, x.reshape(1, -1), prior)
         f = f[0]
         evaluations = 1
     else:
+        raw = f_start
         f = f_start - prior_values(x.reshape(1, -1), prior)[0]
         offsets = offsets_start.copy()
         evaluations = 0
@@ -243,6 +246,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
             evaluations += genes
         candidate = x
         candidate_value = f
+        candidate_raw = raw
         while True:
             solved = damped_step(metric, damping, gradient)
             step = np.zeros(genes)
@@ -252,7 +256,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                     step[g] = solved[k]
                     k += 1
             candidate = clip_genes(x + step, lower, upper, max_strain)
-            value, moved = _values(lanes, vargs, candidate.reshape(1, -1), prior)
+            value, moved, candidate_raw = _values(lanes, vargs, candidate.reshape(1, -1), prior)
             candidate_value = value[0]
             evaluations += 1
             if candidate_value > f:
@@ -261,10 +265,12 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                 alpha = extrapolation(f, candidate_value, slope_along(gradient, step, free), most)
                 if alpha > 1.0:
                     further = clip_genes(x + alpha * step, lower, upper, max_strain)
-                    value, moved = _values(lanes, vargs, further.reshape(1, -1), prior)
+                    value, moved, further_raw = _values(lanes, vargs, further.reshape(1, -1),
+                                                        prior)
                     evaluations += 1
                     if value[0] > candidate_value:
                         candidate, candidate_value, step = further, value[0], further - x
+                        candidate_raw = further_raw
                         offsets = moved
                 break
             damping = max(4.0 * damping, rejected_damping)
@@ -282,7 +288,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
             reason = NO_ASCENT_CODE
             break
         small_gains = small_gains + 1 if candidate_value - f < min_gain else 0
-        x, f = candidate, candidate_value
+        x, f, raw = candidate, candidate_value, candidate_raw
         accepted += 1
         history[accepted] = f
         done = True
@@ -292,4 +298,4 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
         if done or small_gains >= min_gain_steps:
             reason = CONVERGED
             break
-    return x, f, evaluations, history[:accepted + 1].copy(), reason
+    return x, f, evaluations, history[:accepted + 1].copy(), reason, raw, offsets

@@ -369,8 +369,12 @@ def pyramid_search(fitness_at: FitnessAt, space: SearchSpace, config: PyramidCon
         evaluations += used
         stages.append(_local_at(objective, f0, level, x, space, c, gen, strain, offsets0))
         x, strain = stages[-1].x, stages[-1].strain
+    refined = stages[-1]     # level 0's refinement: its evaluation at x is the current blur's
+    known = ({blur: refined.at_x} if refined.at_x is not None and np.array_equal(refined.x, x)
+             else None)
     again, objective, (f0, offsets0), used = _sharpest_fit(fitness_at, c.finest_level, x, c,
-                                                           blur, strain, climb=True)
+                                                           blur, strain, climb=True,
+                                                           known=known)
     evaluations += used
     if again != blur:
         blur = again
@@ -474,7 +478,8 @@ def _shift_sweep(objective: Fitness, x: NDArray[np.float64], space: SearchSpace,
 
 def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
                   config: PyramidConfig, blur_mm: float,
-                  strain: NDArray[np.float64] | None = None, climb: bool = False
+                  strain: NDArray[np.float64] | None = None, climb: bool = False,
+                  known: dict[float, tuple[float, NDArray[np.float64]]] | None = None
                   ) -> tuple[float, Fitness, tuple[float, NDArray[np.float64] | None], int]:
     """The camera blur for ``level`` at ``x`` (model strained by ``strain``), that level's
     fitness with it, the fitness at ``x`` with the light offsets it found there (None where
@@ -489,10 +494,17 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
     fitness are evaluated (its two neighbours, then on in the direction that rises while it
     does): the highest of a curve with one peak, in 3 evaluations where it stays, instead of
     one per candidate (``PyramidConfig.optics_blur_climb``).
+
+    ``known``: blurs whose fitness at ``x`` (and offsets) the caller has, as the fitness
+    returned them (level 0's refinement evaluated its end pose): taken, not evaluated.
     """
     offsets: dict[float, NDArray[np.float64] | None] = {}
+    known = known or {}
 
     def value(b: float) -> float:
+        if b in known:
+            offsets[b] = known[b][1]
+            return known[b][0]
         objective = fitness_at(level, 0.0, b)
         f = float(_strained(objective, strain)(x[None])[0])
         offsets[b] = (objective.last_offsets() if conforms(objective, ResidualFitness)
@@ -510,7 +522,8 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
         best = max((b for b in candidates if b in tried), key=tried.__getitem__)
         if tried[best] > tried[blur_mm] + config.optics_blur_margin:
             chosen = best
-    return chosen, fitness_at(level, 0.0, chosen), (tried[chosen], offsets[chosen]), len(tried)
+    return (chosen, fitness_at(level, 0.0, chosen), (tried[chosen], offsets[chosen]),
+            len(tried.keys() - known.keys()))
 
 
 def _climb(value: Callable[[float], float], grid: list[float], start: int
