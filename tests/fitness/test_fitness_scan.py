@@ -144,6 +144,38 @@ def test_the_scan_keeps_its_kernels_and_shares_them_between_depths() -> None:
         assert np.linalg.norm(ray_error) * T_true[2, 3] < 15.0, ray_error
 
 
+def test_the_scans_labels_are_kept_per_samples_and_colour_tolerances() -> None:
+    """Every pair's scan labels the same samples with their nearest palette colours: kept,
+    the same arrays for the next pair, others for other colour tolerances; the cache holds
+    no reference to the samples (they go with their model)."""
+    import gc
+    import weakref
+    from types import SimpleNamespace
+
+    from photomodel.fitness import SoftMatch
+    from photomodel.fitness._scan import _LABELS, _labelled
+
+    model, features, _ = _case("No.1")
+    first = _labelled(model, features, ScanConfig())
+    again = _labelled(model, features, ScanConfig())
+    assert again.samples is first.samples and again.label_in is first.label_in
+    d2 = (((first.samples.f_in[:, None] - first.samples.palette[None]) ** 2)
+          * first.weights).sum(-1)
+    np.testing.assert_array_equal(first.label_in, d2.argmin(1))
+    wider = SimpleNamespace(match=SoftMatch(sigma_c=2 * features.match.sigma_c))
+    other = _labelled(model, wider, ScanConfig())  # type: ignore[arg-type]
+    assert other.samples is first.samples and other.weights[1] != first.weights[1]
+    samples = weakref.ref(first.samples)
+    key = id(first.samples)
+    assert key in _LABELS
+    del first, again, other
+    for kept in _LABELS.values():
+        for entry in kept.values():
+            assert all(x is not samples() for x in entry)
+    gc.collect()
+    assert samples() is not None    # the model keeps it
+
+
 def test_scan_config_rejects_bad_values() -> None:
     with pytest.raises(ValueError, match="ScanConfig"):
         ScanConfig(theta_step_deg=0.0)

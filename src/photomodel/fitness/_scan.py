@@ -310,16 +310,25 @@ class _Labels:
     colours: NDArray[np.intp]
 
 
+_LABELS: dict[int, dict[tuple[float, float], tuple[NDArray[np.float64], NDArray[np.intp],
+                                                   NDArray[np.intp], NDArray[np.intp]]]] = {}
+
+
 def _labelled(model: PhotoModel, features: StereoFeatures, c: ScanConfig) -> _Labels:
     """The samples a scan with ``c`` correlates, each labelled with its nearest palette
-    colour (the match's colour weights), and the colours used."""
+    colour (the match's colour weights), and the colours used; the labels kept per samples
+    object and colour tolerances (every pair's scans ask for the same)."""
     samples = model_samples(model, _scan_spacing(c))
     m = features.match
-    weights = np.array([1 / m.sigma_l**2, 1 / m.sigma_c**2, 1 / m.sigma_c**2])
-    label_in = _nearest(samples.f_in, samples.palette, weights)
-    label_out = _nearest(samples.f_out, samples.palette, weights)
-    return _Labels(samples, weights, label_in, label_out,
-                   np.unique(np.concatenate([label_in, label_out])))
+    kept = owned(_LABELS, samples, dict)
+    key = (float(m.sigma_l), float(m.sigma_c))
+    if key not in kept:
+        weights = np.array([1 / m.sigma_l**2, 1 / m.sigma_c**2, 1 / m.sigma_c**2])
+        label_in = _nearest(samples.f_in, samples.palette, weights)
+        label_out = _nearest(samples.f_out, samples.palette, weights)
+        kept[key] = (weights, label_in, label_out,
+                     np.unique(np.concatenate([label_in, label_out])))
+    return _Labels(samples, *kept[key])
 
 
 def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
