@@ -239,7 +239,7 @@ class SoftFitness:
         if not 0.0 <= palette_weight <= 1.0:
             raise ValueError(f"palette_weight: expected [0, 1], got {palette_weight}")
         self.palette_weight = float(palette_weight)
-        self.palette = self.samples.palette if palette_weight > 0 else np.zeros((0, 3))
+        self.palette = self.samples.palette if palette_weight > 0 else _NO_PALETTE
         self.K1, self.K2 = features.camera_matrices(level)
         m = features.match
         self._args = (1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2, float(m.wb_weight))
@@ -258,16 +258,13 @@ class SoftFitness:
         # float32, the table int64): one compiled specialisation of every numba loop. The
         # samples' arrays are kept with them (_sample_arrays), the cameras' with the features.
         rig = features.rig
-        geometry = (rig.R, rig.T, self.K1, rig.cam1.distortion12, self.K2,
-                    rig.cam2.distortion12)
-        if not all(a.dtype == np.float64 and a.flags.c_contiguous for a in geometry):
-            geometry = tuple(_f64(a) for a in geometry)
+        geometry = tuple(_f64(a) for a in (rig.R, rig.T, self.K1, rig.cam1.distortion12,
+                                           self.K2, rig.cam2.distortion12))
         images = tuple(np.ascontiguousarray(p[level], dtype=np.float32)
                        for p in features.pyramids)
         inv_var_l, inv_var_c, wb_weight = self._args
-        palette = _f64(self.palette) if palette_weight > 0 else _NO_PALETTE
         self._kernel_args = (
-            *geometry, *arrays.points, palette, self.palette_weight, *images,
+            *geometry, *arrays.points, _f64(self.palette), self.palette_weight, *images,
             inv_var_l, inv_var_c, wb_weight, self._table_out, float(self.edge_mix_fraction),
             self._lin_in)
         self._normal_args = (
