@@ -172,13 +172,14 @@ def _f64(a: NDArray[np.floating] | NDArray[np.integer]) -> NDArray[np.float64]:
 class _SampleArrays:
     """What the kernels take of one ``ModelSamples``, in their types: the points and colours
     (float64), each inner point's band point of the edge mixture (int64, -1: none) and the
-    table of a fitness without it (all -1), the inner colours linear and each camera's half
-    of the signed residual weights."""
+    table of a fitness without it (all -1), the inner colours linear, the signed residual
+    weights (``SoftFitness.residual_weights``) and each camera's half of them."""
 
     points: tuple[NDArray[np.float64], ...]
     table_out: NDArray[np.int64]
     no_table: NDArray[np.int64]
     lin_in: NDArray[np.float64]
+    weights: NDArray[np.float64]
     half_weights: NDArray[np.float64]
 
 
@@ -199,7 +200,7 @@ def _sample_arrays(samples: ModelSamples) -> _SampleArrays:
         return _SampleArrays(
             tuple(_f64(a) for a in (samples.p_in, samples.f_in, samples.p_out, samples.f_out)),
             np.ascontiguousarray(table, dtype=np.int64), none, _f64(samples.lin_in),
-            _f64(weights / 2.0))
+            weights, _f64(weights / 2.0))
 
     return owned(_SAMPLE_ARRAYS, samples, make)
 
@@ -252,6 +253,7 @@ class SoftFitness:
             self.edge_mix_fraction = fraction if fraction >= m.min_edge_mix else 0.0
             self._table_out = arrays.table_out
         self._lin_in = arrays.lin_in
+        self._weights = arrays.weights
         self._half_weights = arrays.half_weights    # each camera's half
         self.last_terms: NDArray[np.float64] = np.zeros((0, 2, 6))
         # The kernels' arguments, each of one fixed type (C-contiguous float64, the images
@@ -298,9 +300,9 @@ class SoftFitness:
 
     def residual_weights(self) -> NDArray[np.float64]:
         """Signed weight (N_in + N_out,) of each point's agreement in one camera's term:
-        ``1 / N_in`` inside, ``-1 / N_out`` in the band (see :meth:`residuals`)."""
-        n_in, n_out = len(self.samples.p_in), len(self.samples.p_out)
-        return np.concatenate([np.full(n_in, 1.0 / n_in), np.full(n_out, -1.0 / max(n_out, 1))])
+        ``1 / N_in`` inside, ``-1 / N_out`` in the band (see :meth:`residuals`); the caller's
+        own copy."""
+        return self._weights.copy()
 
     def residual_points(self) -> NDArray[np.float64]:
         """Model-frame points (N_in + N_out, 3), mm, of the residuals' samples, in their
