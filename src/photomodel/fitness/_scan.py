@@ -43,6 +43,7 @@ from typing import Any
 
 import numba
 import numpy as np
+import rocket_fft  # noqa: F401  (scipy.fft inside numba: registers its overloads)
 import scipy.fft
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
@@ -399,8 +400,8 @@ def _group_peaks(group: list[tuple[float, tuple[NDArray[np.float64], tuple[Any, 
     for d, (_, (rays, maps1, maps2)) in enumerate(group):
         sizes[d] = rays.shape[:2]
         _carried(agree1, agree2, *maps1, *maps2, both[d])
-    fitness = scipy.fft.irfft2(_weighted_sums(scipy.fft.rfft2(both), kernels), s=shape)
-    found = _top_maxima(fitness, sizes, _PER_MAP)
+    found = _inverse_maxima(_weighted_sums(_planes_rfft2(both), kernels), shape[0], shape[1],
+                            sizes, _PER_MAP)
     peaks = []
     for d, (z, (rays, _, _)) in enumerate(group):
         angle, v, u, score = _maxima_rows(found[d])
@@ -642,6 +643,60 @@ def _maxima_rows(found: NDArray[np.float64]
     rows = rows[keep]
     return (np.repeat(np.arange(len(found)), per_map)[keep], rows[:, 0].astype(np.intp),
             rows[:, 1].astype(np.intp), rows[:, 2])
+
+
+@njit(cache=True, parallel=True)
+def _planes_rfft2(x):  # pragma: no cover - compiled
+    """``scipy.fft.rfft2`` of every plane of ``x`` (D, C, H, W) float32, the planes on
+    numba's threads (Rocket-FFT: the same PocketFFT, the same spectra to the bit; scipy's
+    ran them on one core)."""
+    D, C, H, W = x.shape
+    out = np.empty((D, C, H, W // 2 + 1), dtype=np.complex64)
+    for m in prange(D * C):
+        out[m // C, m % C] = scipy.fft.rfft2(x[m // C, m % C])
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _inverse_maxima(spectra, H, W, sizes, per_map):  # pragma: no cover - compiled
+    """:func:`_top_maxima` of ``scipy.fft.irfft2(spectra, s=(H, W))`` (``spectra`` (D, A,
+    H, W // 2 + 1)), each map's inverse transform and maxima in one task on numba's threads:
+    the maps are not kept."""
+    D, A = spectra.shape[0], spectra.shape[1]
+    out = np.zeros((D, A, per_map, 3))
+    for m in prange(D * A):
+        d, a = m // A, m % A
+        f = scipy.fft.irfft2(spectra[d, a], s=(H, W))
+        _map_maxima(f, sizes[d, 0], sizes[d, 1], out[d, a])
+    return out
+
+
+@njit(cache=True)
+def _map_maxima(f, H, W, best):  # pragma: no cover - compiled
+    """Fill ``best`` (per_map, 3) with (row, column, value) of the highest 3 x 3 local
+    maxima of map ``f`` cropped to (``H``, ``W``), its edge repeated beyond them, best
+    first; rows of value 0 stay where it has fewer."""
+    per_map = best.shape[0]
+    for r in range(H):
+        for c in range(W):
+            v = f[r, c]
+            if v <= best[per_map - 1, 2]:
+                continue
+            is_max = True
+            for dr in range(-1, 2):
+                rr = min(max(r + dr, 0), H - 1)
+                for dc in range(-1, 2):
+                    if f[rr, min(max(c + dc, 0), W - 1)] > v:
+                        is_max = False
+            if not is_max:
+                continue
+            k = per_map - 1
+            while k > 0 and best[k - 1, 2] < v:
+                best[k] = best[k - 1]
+                k -= 1
+            best[k, 0] = r
+            best[k, 1] = c
+            best[k, 2] = v
 
 
 @njit(cache=True, parallel=True)
