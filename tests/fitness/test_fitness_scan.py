@@ -5,6 +5,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+import scipy.fft
 import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
@@ -408,13 +409,33 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     d2 = (((image[None] - colours[:, None, None]) ** 2) * weights).sum(axis=-1)
     np.testing.assert_allclose(_scan._agreements(image, colours, weights), np.exp(-0.5 * d2),
                                rtol=1e-6)
-    maps = np.zeros((2, 6, 7), dtype=np.float32)
+    maps = np.full((2, 6, 7), -0.05, dtype=np.float32)     # the transforms' rounding stays < 0
     maps[0, 1, 2], maps[0, 4, 5], maps[0, 4, 4] = 0.5, 0.9, 0.3   # (4, 4) sits beside a higher
     maps[1, 3, 3] = -0.2                                         # a map without positive peaks
-    found = _scan._top_maxima(maps[None], np.array([[6, 7]]), 4)
+    found = _scan._inverse_maxima(scipy.fft.rfft2(maps)[None], 6, 7, np.array([[6, 7]]), 4)
     angle, row, col, value = _scan._maxima_rows(found[0])
     assert angle.tolist() == [0, 0] and row.tolist() == [4, 1] and col.tolist() == [5, 2]
-    np.testing.assert_allclose(value, [0.9, 0.5])
+    np.testing.assert_allclose(value, [0.9, 0.5], rtol=1e-6)
+
+
+def test_the_scan_transforms_in_numba_equal_scipy_fft_to_the_bit() -> None:
+    """The depth group's forward transforms (every plane) and each map's inverse transform
+    before its maxima: Rocket-FFT in numba's threads gives what ``scipy.fft`` gives, so the
+    scan's peaks are those of the serial transforms."""
+    rng = np.random.default_rng(8)
+    planes = rng.normal(size=(3, 4, 20, 26)).astype(np.float32)
+    spectra = _scan._planes_rfft2(planes)
+    assert spectra.dtype == np.complex64
+    np.testing.assert_array_equal(spectra, scipy.fft.rfft2(planes))
+    sizes = np.array([[20, 26], [17, 23], [15, 21]])
+    found = _scan._inverse_maxima(spectra, 20, 26, sizes, 5)
+    maps = scipy.fft.irfft2(spectra, s=(20, 26))
+    for d in range(3):
+        for k in range(4):
+            best = np.zeros((5, 3))
+            _scan._map_maxima(maps[d, k], sizes[d, 0], sizes[d, 1], best)
+            np.testing.assert_array_equal(found[d, k], best)
+            assert best[0, 2] == maps[d, k, :sizes[d, 0], :sizes[d, 1]].max()
 
 
 
