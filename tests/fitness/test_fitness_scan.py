@@ -5,8 +5,8 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-import scipy.fft
 import pytest
+import scipy.fft
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import (
