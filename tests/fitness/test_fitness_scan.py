@@ -413,9 +413,11 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     maps[0, 1, 2], maps[0, 4, 5], maps[0, 4, 4] = 0.5, 0.9, 0.3   # (4, 4) sits beside a higher
     maps[1, 3, 3] = -0.2                                         # a map without positive peaks
     found = _scan._inverse_maxima(scipy.fft.rfft2(maps)[None], 6, 7, np.array([[6, 7]]), 4)
-    angle, row, col, value = _scan._maxima_rows(found[0])
-    assert angle.tolist() == [0, 0] and row.tolist() == [4, 1] and col.tolist() == [5, 2]
-    np.testing.assert_allclose(value, [0.9, 0.5], rtol=1e-6)
+    rays = np.stack(np.meshgrid(np.arange(7.0), 10.0 * np.arange(6.0)), axis=-1)[None]
+    peaks = _scan._peak_rows(found, np.array([700.0]), np.array([0.1, 0.2]), rays)
+    # (score, z, angle, ray x, ray y): map 0's two maxima, best first; map 1 has none
+    np.testing.assert_allclose(peaks, [[0.9, 700.0, 0.1, 5.0, 40.0],
+                                       [0.5, 700.0, 0.1, 2.0, 10.0]], rtol=1e-6)
 
 
 def test_the_scan_transforms_in_numba_equal_scipy_fft_to_the_bit() -> None:
@@ -451,8 +453,11 @@ def test_the_carried_agreements_match_cv2_remap() -> None:
     u2, v2 = u1 + 0.3, v1 - 0.7
     u1[0, 0] = v1[0, 1] = -1.0
     u1[1, 0], v1[1, 0] = 39.0, 29.0     # the last pixel exactly
-    out = np.zeros((3, 12, 15), dtype=np.float32)
-    _scan._carried(agree1, agree2, u1, v1, u2, v2, out)
+    out = np.zeros((1, 3, 12, 15), dtype=np.float32)
+    maps = np.full((1, 4, 10, 13), -1.0, dtype=np.float32)   # the group's grid: larger
+    maps[0, :, :9, :11] = u1, v1, u2, v2
+    _scan._carried(agree1, agree2, maps, np.array([[9, 11]]), out)
+    out = out[0]
     expected = np.stack([0.5 * (cv2.remap(a, u1, v1, cv2.INTER_LINEAR, borderValue=0.0)
                                 + cv2.remap(b, u2, v2, cv2.INTER_LINEAR, borderValue=0.0))
                          for a, b in zip(agree1, agree2, strict=True)])

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -267,9 +267,8 @@ def prepare_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
     if not 0 <= c.level < features.levels:
         raise ValueError(f"level: expected 0..{features.levels - 1}, got {c.level}")
     labels = _labelled(model, features, c)
-    for _ in _kernel_groups(model, features, np.asarray(lower, dtype=np.float64),
-                            np.asarray(upper, dtype=np.float64), c, labels):
-        pass
+    _scan_plan(model, features, np.asarray(lower, dtype=np.float64),
+               np.asarray(upper, dtype=np.float64), c, labels)
 
 
 def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
@@ -282,13 +281,10 @@ def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64
     targets, weights32 = (palette[colours] + shift).astype(np.float32), weights.astype(np.float32)
     agree1, agree2 = (_agreements(p[c.level], targets, weights32) for p in features.pyramids)
     thetas = _angle_grid(lower[5], upper[5], c.theta_step_deg)
-    peaks = [np.zeros((0, 5))]
-    scanned = 0     # depths scanned
-    for kernels, shape, group in _kernel_groups(model, features, lower, upper, c, labels):
-        scanned += len(group)
-        if group:
-            peaks.extend(_group_peaks(group, agree1, agree2, kernels, shape, thetas))
-    peaks = np.concatenate(peaks)
+    plan = _scan_plan(model, features, lower, upper, c, labels)
+    peaks = np.concatenate([np.zeros((0, 5)),
+                            *(_group_peaks(group, agree1, agree2, thetas) for group in plan)])
+    scanned = sum(len(group.depths) for group in plan)
     peaks = peaks[np.lexsort(-peaks.T[::-1])]    # best score first (ties: farther, ...)
     found = _distinct_peaks(peaks, lower, upper, c, scanned * len(thetas))
     # The scan's grid is square to camera 1; a garment on the table faces the rig.
@@ -332,15 +328,46 @@ def _labelled(model: PhotoModel, features: StereoFeatures, c: ScanConfig) -> _La
     return _Labels(samples, *kept[key])
 
 
-def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
-                   upper: NDArray[np.float64], c: ScanConfig, labels: _Labels
-                   ) -> Iterator[tuple[NDArray[np.complex64], tuple[int, int],
-                                       list[tuple[float, Any]]]]:
-    """The depth groups of a scan with ``c`` (samples ``labels``): each group's kernel
-    spectra (A, C, H, W // 2 + 1), their FFT shape, and its depths inside the box with their
-    pinhole grids (see :func:`_group_peaks`). The spectra and grids depend on the model, the
-    rig, the image size and the box only, and are kept (:func:`_cached`,
-    :func:`_depth_grids`)."""
+@dataclass(frozen=True)
+class _GroupPlan:
+    """What a scan needs of one depth group besides the images: the kernels' spectra (A, C,
+    H, W // 2 + 1) and FFT ``shape`` (H, W), and for each of its ``depths`` (D,) inside the
+    box: its pinhole grid's size ``sizes`` (D, 2), both cameras' remap maps ``maps`` (D, 4,
+    h, w) (camera 1's u, v, camera 2's u, v; -1 beyond a depth's size) and its pixels' rays
+    (x/z, y/z) ``rays`` (D, h, w, 2)."""
+
+    kernels: NDArray[np.complex64]
+    shape: tuple[int, int]
+    depths: NDArray[np.float64]
+    sizes: NDArray[np.intp]
+    maps: NDArray[np.float32]
+    rays: NDArray[np.float64]
+
+
+_PLANS: dict[int, OrderedDict[tuple[Any, ...], list[_GroupPlan]]] = {}
+
+
+def _scan_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+               upper: NDArray[np.float64], c: ScanConfig, labels: _Labels) -> list[_GroupPlan]:
+    """The depth groups of a scan with ``c`` (samples ``labels``) that have depths inside the
+    box (see :func:`_group_peaks`). They depend on the model, the rig, the image size and the
+    box only, and are kept per model object (the kernels' spectra with :func:`_cached`, the
+    grids with :func:`_depth_grids`, the plan itself here: its Python was a millisecond of
+    each scan)."""
+    m = features.match
+    K1 = features.camera_matrices(c.level)[0]
+    h, w = features.pyramids[0][c.level].shape[:2]
+    rig_key = features.rig.calibration_key
+    key = (c, m, rig_key, K1.tobytes(), h, w, lower.tobytes(), upper.tobytes())
+    return _kept(owned(_PLANS, model, OrderedDict), key,
+                 lambda: _make_plan(model, features, lower, upper, c, labels),
+                 _SPECTRA_PER_MODEL)
+
+
+def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+               upper: NDArray[np.float64], c: ScanConfig, labels: _Labels
+               ) -> list[_GroupPlan]:
+    """:func:`_scan_plan`'s groups, built."""
     samples, label_in, label_out, colours = (labels.samples, labels.label_in, labels.label_out,
                                              labels.colours)
     m = features.match
@@ -356,16 +383,13 @@ def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[n
               (samples.p_out[:, :2], label_out, -1.0 / len(label_out))]
     workers = numba.get_num_threads()
     rig_key = rig.calibration_key
+    plan = []
     for first in range(0, len(zs), c.depths_per_kernel):
         # The group's depths are scanned on pinhole grids whose pixels are as large on the
         # garment as camera 1's are at the group's farthest depth: one set of kernels.
         z_ref = zs[min(first + c.depths_per_kernel, len(zs)) - 1]
         reach = int(np.ceil(radius_mm * K1[0, 0] / z_ref)) + 2
         shape = (scipy.fft.next_fast_len(h + reach), scipy.fft.next_fast_len(w + reach))
-        key = (c.level, _detail(c), m, K1.tobytes(), thetas.tobytes(), float(z_ref), shape)
-        kernels = _cached(model, key, lambda: np.conj(scipy.fft.rfft2(  # noqa: B023
-            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),  # noqa: B023
-            workers=workers)))
         group = []    # (z, its pinhole grid's rays and both cameras' remap maps)
         for z in zs[first:first + c.depths_per_kernel]:
             if z > upper[2]:    # the grid's last depth: its peaks would all lie outside the box
@@ -374,19 +398,32 @@ def _kernel_groups(model: PhotoModel, features: StereoFeatures, lower: NDArray[n
             K_z[:2] *= z / z_ref
             h_z, w_z = int(np.ceil(h * z / z_ref)), int(np.ceil(w * z / z_ref))
             group.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))))
-        yield kernels, shape, group
+        if not group:
+            continue
+        key = (c.level, _detail(c), m, K1.tobytes(), thetas.tobytes(), float(z_ref), shape)
+        kernels = _cached(model, key, lambda: np.conj(scipy.fft.rfft2(  # noqa: B023
+            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),  # noqa: B023
+            workers=workers)))
+        sizes = np.array([rays.shape[:2] for _, (rays, _, _) in group], dtype=np.intp)
+        rows, cols = sizes.max(axis=0)
+        maps = np.full((len(group), 4, rows, cols), -1.0, dtype=np.float32)
+        rays2 = np.zeros((len(group), rows, cols, 2))
+        for d, (_, (rays, maps1, maps2)) in enumerate(group):
+            for k, part in enumerate((*maps1, *maps2)):
+                maps[d, k, :sizes[d, 0], :sizes[d, 1]] = part
+            rays2[d, :sizes[d, 0], :sizes[d, 1]] = rays[..., :2]
+        plan.append(_GroupPlan(kernels, shape, np.array([z for z, _ in group]), sizes, maps,
+                               rays2))
+    return plan
 
 
-def _group_peaks(group: list[tuple[float, tuple[NDArray[np.float64], tuple[Any, ...],
-                                                  tuple[Any, ...]]]],
-                 agree1: NDArray[np.float32], agree2: NDArray[np.float32],
-                 kernels: NDArray[np.complex64], shape: tuple[int, int],
-                 thetas: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+def _group_peaks(group: _GroupPlan, agree1: NDArray[np.float32], agree2: NDArray[np.float32],
+                 thetas: NDArray[np.float64]) -> NDArray[np.float64]:
     """The local maxima (N, 5: score, z, angle, ray x, ray y) of each depth of a group that
-    shares one set of kernel spectra (``kernels`` (A, C, H, W // 2 + 1), FFT ``shape``): both
-    cameras' agreement images ``agree1``, ``agree2`` (C, h, w) carried onto each depth's
-    pinhole grid (``group``: each depth's z, its grid's rays and both cameras' remap maps)
-    and correlated with every angle's kernels, the group's depths in one batch.
+    shares one set of kernel spectra (:class:`_GroupPlan`): both cameras' agreement images
+    ``agree1``, ``agree2`` (C, h, w) carried onto each depth's pinhole grid and correlated
+    with every angle's kernels, the group's depths in one batch; depth by depth, each map's
+    in the order of the angles.
 
     The kernels' products read each kernel element once for all the group's depths (the
     spectra are 3.5 MB on level 4 with 45 angles) and run with the maxima on numba's
@@ -395,19 +432,11 @@ def _group_peaks(group: list[tuple[float, tuple[NDArray[np.float64], tuple[Any, 
     same, per-scene time 0.967; in isolation a level-4 scan 3.88 -> 3.34 ms, a level-3 scan
     11.7 -> 12.5 ms (its depths gained more from the threads; it now runs in one scene of
     seven)."""
-    both = np.zeros((len(group), len(agree1), *shape), dtype=np.float32)
-    sizes = np.empty((len(group), 2), dtype=np.intp)
-    for d, (_, (rays, maps1, maps2)) in enumerate(group):
-        sizes[d] = rays.shape[:2]
-        _carried(agree1, agree2, *maps1, *maps2, both[d])
-    found = _inverse_maxima(_weighted_sums(_planes_rfft2(both), kernels), shape[0], shape[1],
-                            sizes, _PER_MAP)
-    peaks = []
-    for d, (z, (rays, _, _)) in enumerate(group):
-        angle, v, u, score = _maxima_rows(found[d])
-        peaks.append(np.column_stack([score, np.full(len(score), z), thetas[angle],
-                                      rays[v, u, :2]]))
-    return peaks
+    both = np.zeros((len(group.depths), len(agree1), *group.shape), dtype=np.float32)
+    _carried(agree1, agree2, group.maps, group.sizes, both)
+    found = _inverse_maxima(_weighted_sums(_planes_rfft2(both), group.kernels), *group.shape,
+                            group.sizes, _PER_MAP)
+    return _peak_rows(found, group.depths, thetas, group.rays)
 
 
 def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: ScanResult,
@@ -573,23 +602,27 @@ def _splat(out, p, slot, weight, cos, sin, fx, fy):  # pragma: no cover - compil
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def _carried(agree1, agree2, u1, v1, u2, v2, out):  # pragma: no cover - compiled
-    """``out[k, :h, :w]`` = the mean of both cameras' agreement images ``agree1``, ``agree2``
-    (C, H, W) carried onto a depth's grid (h, w): each bilinearly interpolated at its
-    camera's pixel positions ``u``, ``v`` (h, w), a pixel outside the image counting 0 (as
-    ``cv2.remap`` with a constant border 0 does, to 1e-7). One call for every colour of a
-    depth, the grid's rows on numba's threads (two ``cv2.remap`` calls
-    and the sum for each colour took a millisecond of Python a level-4 scan)."""
+def _carried(agree1, agree2, maps, sizes, out):  # pragma: no cover - compiled
+    """``out[d, k, :h, :w]`` = the mean of both cameras' agreement images ``agree1``,
+    ``agree2`` (C, H, W) carried onto depth ``d``'s grid (``sizes[d]`` = (h, w)): each
+    bilinearly interpolated at its camera's pixel positions ``maps[d]`` (camera 1's u, v,
+    camera 2's u, v), a pixel outside the image counting 0 (as ``cv2.remap`` with a constant
+    border 0 does, to 1e-7). One call for every depth and colour of a group, the grids' rows
+    on numba's threads (two ``cv2.remap`` calls and the sum for each colour took a
+    millisecond of Python a level-4 scan, a call a depth 0.1 ms)."""
     C, H, W = agree1.shape
-    h, w = u1.shape
-    for r in prange(h):
-        for c in range(w):
+    rows = maps.shape[2]
+    for m in prange(maps.shape[0] * rows):
+        d, r = m // rows, m % rows
+        if r >= sizes[d, 0]:
+            continue
+        for c in range(sizes[d, 1]):
             for k in range(C):
-                out[k, r, c] = 0.0
+                out[d, k, r, c] = 0.0
             for cam in range(2):
                 img = agree1 if cam == 0 else agree2
-                u = u1[r, c] if cam == 0 else u2[r, c]
-                v = v1[r, c] if cam == 0 else v2[r, c]
+                u = maps[d, 2 * cam, r, c]
+                v = maps[d, 2 * cam + 1, r, c]
                 if not (u > -1.0 and v > -1.0 and u < W and v < H):
                     continue
                 x0 = int(math.floor(u))
@@ -607,7 +640,7 @@ def _carried(agree1, agree2, u1, v1, u2, v2, out):  # pragma: no cover - compile
                             continue
                         weight = np.float32(wy * (fu if dx else 1.0 - fu))
                         for k in range(C):
-                            out[k, r, c] += weight * img[k, y, x]
+                            out[d, k, r, c] += weight * img[k, y, x]
 
 
 _PER_MAP = 4
@@ -631,18 +664,33 @@ def _weighted_sums(spectra, kernels):  # pragma: no cover - compiled
     return out
 
 
-def _maxima_rows(found: NDArray[np.float64]
-                 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
-                            NDArray[np.float64]]:
-    """The positive rows of one depth's :func:`_inverse_maxima` (A, per_map, 3): the up to
-    ``per_map`` highest positive 3 x 3 local maxima of each map, map by map, best first in
-    each: their maps, rows, columns and values."""
-    per_map = found.shape[1]
-    rows = found.reshape(-1, 3)
-    keep = rows[:, 2] > 0
-    rows = rows[keep]
-    return (np.repeat(np.arange(len(found)), per_map)[keep], rows[:, 0].astype(np.intp),
-            rows[:, 1].astype(np.intp), rows[:, 2])
+@njit(cache=True)
+def _peak_rows(found, depths, thetas, rays):  # pragma: no cover - compiled
+    """The positive rows of :func:`_inverse_maxima`'s ``found`` (D, A, per_map, 3) as peaks
+    (N, 5: score, z, angle, ray x, ray y), depth by depth, each depth's maps in the order of
+    the angles and each map's best first; ``rays`` (D, h, w, 2) each depth's pixel rays."""
+    D, A, per_map = found.shape[0], found.shape[1], found.shape[2]
+    n = 0
+    for d in range(D):
+        for a in range(A):
+            for k in range(per_map):
+                if found[d, a, k, 2] > 0:
+                    n += 1
+    out = np.empty((n, 5))
+    i = 0
+    for d in range(D):
+        for a in range(A):
+            for k in range(per_map):
+                if found[d, a, k, 2] > 0:
+                    v = int(found[d, a, k, 0])
+                    u = int(found[d, a, k, 1])
+                    out[i, 0] = found[d, a, k, 2]
+                    out[i, 1] = depths[d]
+                    out[i, 2] = thetas[a]
+                    out[i, 3] = rays[d, v, u, 0]
+                    out[i, 4] = rays[d, v, u, 1]
+                    i += 1
+    return out
 
 
 @njit(cache=True, parallel=True)
