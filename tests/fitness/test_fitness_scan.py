@@ -412,7 +412,9 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
     maps = np.full((2, 6, 7), -0.05, dtype=np.float32)     # the transforms' rounding stays < 0
     maps[0, 1, 2], maps[0, 4, 5], maps[0, 4, 4] = 0.5, 0.9, 0.3   # (4, 4) sits beside a higher
     maps[1, 3, 3] = -0.2                                         # a map without positive peaks
-    found = _scan._inverse_maxima(scipy.fft.rfft2(maps)[None], 6, 7, np.array([[6, 7]]), 4)
+    kernels = np.eye(2, dtype=np.complex64)[:, :, None, None] * np.ones((1, 1, 6, 4))  # map a
+    found = _scan._correlated_maxima(scipy.fft.rfft2(maps)[None], kernels.astype(np.complex64),
+                                     6, 7, np.array([[6, 7]]), 4)
     rays = np.stack(np.meshgrid(np.arange(7.0), 10.0 * np.arange(6.0)), axis=-1)[None]
     peaks = _scan._peak_rows(found, np.array([700.0]), np.array([0.1, 0.2]), rays)
     # (score, z, angle, ray x, ray y): map 0's two maxima, best first; map 1 has none
@@ -420,25 +422,27 @@ def test_the_colour_agreements_and_local_maxima_match_their_numpy_forms() -> Non
                                        [0.5, 700.0, 0.1, 2.0, 10.0]], rtol=1e-6)
 
 
-def test_the_scan_transforms_in_numba_equal_scipy_fft_to_the_bit() -> None:
-    """The depth group's forward transforms (every plane) and each map's inverse transform
-    before its maxima: Rocket-FFT in numba's threads gives what ``scipy.fft`` gives, so the
-    scan's peaks are those of the serial transforms."""
+def test_the_scan_transforms_in_numba_equal_scipy_fft() -> None:
+    """The depth group's forward transforms (every plane: to the bit) and each (depth, angle)
+    map's sums, inverse transform and maxima: Rocket-FFT in numba's threads gives what
+    ``scipy.fft`` gives."""
     rng = np.random.default_rng(8)
     planes = rng.normal(size=(3, 4, 20, 26)).astype(np.float32)
     spectra = _scan._planes_rfft2(planes)
     assert spectra.dtype == np.complex64
     np.testing.assert_array_equal(spectra, scipy.fft.rfft2(planes))
+    kernels = (rng.normal(size=(5, 4, 20, 14)) + 1j * rng.normal(size=(5, 4, 20, 14))
+               ).astype(np.complex64)
     sizes = np.array([[20, 26], [17, 23], [15, 21]])
-    found = _scan._inverse_maxima(spectra, 20, 26, sizes, 5)
-    maps = scipy.fft.irfft2(spectra, s=(20, 26))
+    found = _scan._correlated_maxima(spectra, kernels, 20, 26, sizes, 5)
+    maps = scipy.fft.irfft2(np.einsum("dkij,akij->daij", spectra, kernels), s=(20, 26))
     for d in range(3):
-        for k in range(4):
+        for a in range(5):
             best = np.zeros((5, 3))
-            _scan._map_maxima(maps[d, k], sizes[d, 0], sizes[d, 1], best)
-            np.testing.assert_array_equal(found[d, k], best)
-            assert best[0, 2] == maps[d, k, :sizes[d, 0], :sizes[d, 1]].max()
-
+            _scan._map_maxima(maps[d, a], sizes[d, 0], sizes[d, 1], best)
+            np.testing.assert_array_equal(found[d, a, :, :2], best[:, :2])
+            np.testing.assert_allclose(found[d, a, :, 2], best[:, 2], rtol=1e-4, atol=1e-5)
+            assert best[0, 2] == maps[d, a, :sizes[d, 0], :sizes[d, 1]].max()
 
 
 def test_the_carried_agreements_match_cv2_remap() -> None:
