@@ -360,19 +360,19 @@ def _scan_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.fl
     rig_key = features.rig.calibration_key
     key = (c, m, rig_key, K1.tobytes(), h, w, lower.tobytes(), upper.tobytes())
     return _kept(owned(_PLANS, model, OrderedDict), key,
-                 lambda: _make_plan(model, features, lower, upper, c, labels),
+                 lambda: _make_plan(model, features, lower, upper, c, labels, K1, (h, w)),
                  _SPECTRA_PER_MODEL)
 
 
 def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
-               upper: NDArray[np.float64], c: ScanConfig, labels: _Labels
-               ) -> list[_GroupPlan]:
-    """:func:`_scan_plan`'s groups, built."""
+               upper: NDArray[np.float64], c: ScanConfig, labels: _Labels,
+               K1: NDArray[np.float64], size: tuple[int, int]) -> list[_GroupPlan]:
+    """:func:`_scan_plan`'s groups, built (``K1``: camera 1's matrix at the scanned level,
+    ``size`` its image's (rows, columns))."""
     samples, label_in, label_out, colours = (labels.samples, labels.label_in, labels.label_out,
                                              labels.colours)
     m = features.match
-    K1 = features.camera_matrices(c.level)[0]
-    h, w = features.pyramids[0][c.level].shape[:2]
+    h, w = size
     scale = 0.5**c.level
     rig = features.rig
     zs = _depth_grid(lower[2], upper[2], c.z_step)
@@ -423,15 +423,8 @@ def _group_peaks(group: _GroupPlan, agree1: NDArray[np.float32], agree2: NDArray
     shares one set of kernel spectra (:class:`_GroupPlan`): both cameras' agreement images
     ``agree1``, ``agree2`` (C, h, w) carried onto each depth's pinhole grid and correlated
     with every angle's kernels, the group's depths in one batch; depth by depth, each map's
-    in the order of the angles.
-
-    The kernels' products read each kernel element once for all the group's depths (the
-    spectra are 3.5 MB on level 4 with 45 angles) and run with the maxima on numba's
-    threads; a level-4 scan makes a dozen calls where its depths on two Python threads made
-    some hundred small ones. 192 scenes of 16 conditions, both ways in turn: every pose the
-    same, per-scene time 0.967; in isolation a level-4 scan 3.88 -> 3.34 ms, a level-3 scan
-    11.7 -> 12.5 ms (its depths gained more from the threads; it now runs in one scene of
-    seven)."""
+    in the order of the angles. Four kernel calls a group (its depths on two Python threads
+    made some hundred small ones before session 21)."""
     both = np.zeros((len(group.depths), len(agree1), *group.shape), dtype=np.float32)
     _carried(agree1, agree2, group.maps, group.sizes, both)
     found = _correlated_maxima(_planes_rfft2(both), group.kernels, *group.shape, group.sizes,
