@@ -132,10 +132,11 @@ def test_the_scan_keeps_its_kernels_and_shares_them_between_depths() -> None:
     model, features, T_true = _case("No.6", "gripper")
     space = SearchSpace.from_ranges()
     first = scan_flat_poses(model, features, space.lower, space.upper)
-    kept = len(_scan._SPECTRA[id(model)])
-    assert kept == 3      # 9 depths, 3 per kernel set
+    (plan,) = _scan._PLANS[id(model)].values()
+    assert len(plan) == 3      # 9 depths, 3 per kernel set
     again = scan_flat_poses(model, features, space.lower, space.upper)
-    assert len(_scan._SPECTRA[id(model)]) == kept
+    (kept,) = _scan._PLANS[id(model)].values()
+    assert all(a.kernels is b.kernels for a, b in zip(plan, kept, strict=True))
     np.testing.assert_array_equal(first.poses, again.poses)
     np.testing.assert_array_equal(first.scores, again.scores)
     each = scan_flat_poses(model, features, space.lower, space.upper,

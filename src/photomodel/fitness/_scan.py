@@ -56,7 +56,9 @@ from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
 from photomodel.geometry import facing_pose_vectors
 from photomodel.model import PhotoModel
 
-_SPECTRA_PER_MODEL = 8
+_PLANS_PER_MODEL = 3
+"""Scan plans kept per model (each holds its depth groups' kernel spectra, about 3.5 MB a
+group on level 4 with 45 angles): ``locate`` asks for two, the coarse scan's and level 3's."""
 
 __all__ = ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses"]
 
@@ -351,9 +353,9 @@ def _scan_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.fl
                upper: NDArray[np.float64], c: ScanConfig, labels: _Labels) -> list[_GroupPlan]:
     """The depth groups of a scan with ``c`` (samples ``labels``) that have depths inside the
     box (see :func:`_group_peaks`). They depend on the model, the rig, the image size and the
-    box only, and are kept per model object (the kernels' spectra with :func:`_cached`, the
-    grids with :func:`_depth_grids`, the plan itself here: its Python was a millisecond of
-    each scan)."""
+    box only, and are kept per model object (at most ``_PLANS_PER_MODEL``; the grids also
+    with :func:`_depth_grids`): a cell looks for one garment in many stereo pairs, and the
+    kernels' spectra were half a scan's time, the Python around its depths a millisecond."""
     m = features.match
     K1 = features.camera_matrices(c.level)[0]
     h, w = features.pyramids[0][c.level].shape[:2]
@@ -361,7 +363,7 @@ def _scan_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.fl
     key = (c, m, rig_key, K1.tobytes(), h, w, lower.tobytes(), upper.tobytes())
     return _kept(owned(_PLANS, model, OrderedDict), key,
                  lambda: _make_plan(model, features, lower, upper, c, labels, K1, (h, w)),
-                 _SPECTRA_PER_MODEL)
+                 _PLANS_PER_MODEL)
 
 
 def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
@@ -371,7 +373,6 @@ def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.fl
     ``size`` its image's (rows, columns))."""
     samples, label_in, label_out, colours = (labels.samples, labels.label_in, labels.label_out,
                                              labels.colours)
-    m = features.match
     h, w = size
     scale = 0.5**c.level
     rig = features.rig
@@ -400,10 +401,9 @@ def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.fl
             group.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))))
         if not group:
             continue
-        key = (c.level, _detail(c), m, K1.tobytes(), thetas.tobytes(), float(z_ref), shape)
-        kernels = _cached(model, key, lambda: np.conj(scipy.fft.rfft2(  # noqa: B023
-            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),  # noqa: B023
-            workers=workers)))
+        kernels = np.conj(scipy.fft.rfft2(
+            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),
+            workers=workers))
         sizes = np.array([rays.shape[:2] for _, (rays, _, _) in group], dtype=np.intp)
         rows, cols = sizes.max(axis=0)
         maps = np.full((len(group), 4, rows, cols), -1.0, dtype=np.float32)
@@ -455,17 +455,6 @@ def _scan_spacing(c: ScanConfig) -> SampleSpacing:
     if _detail(c) == c.level:
         return spacing
     return replace(spacing, blur_mm=level_spacing(c.level).blur_mm)
-
-
-_SPECTRA: dict[int, OrderedDict[tuple[Any, ...], NDArray[np.complex64]]] = {}
-
-
-def _cached(model: PhotoModel, key: tuple[Any, ...],
-            make: Callable[[], NDArray[np.complex64]]) -> NDArray[np.complex64]:
-    """``make()``, kept per model object (while it lives) under ``key``: the kernels'
-    spectra depend on the model, the camera and the search box only, and a cell looks for
-    one garment in many stereo pairs. At most ``_SPECTRA_PER_MODEL`` keys per model."""
-    return _kept(owned(_SPECTRA, model, OrderedDict), key, make, _SPECTRA_PER_MODEL)
 
 
 def _kept(store: OrderedDict[Any, Any], key: Any, make: Callable[[], Any], limit: int) -> Any:
