@@ -289,9 +289,17 @@ def test_kernel_matches_a_numpy_reference(level: int, palette_weight: float) -> 
         assert f[k] == pytest.approx(expected[:, 0].mean(), abs=1e-6)
 
 
-def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
-    from photomodel.fitness._soft_kernels import _edge_mixture
+def _edge_mixture(model_lin: np.ndarray, gain: np.ndarray, table: np.ndarray, t: float,
+                  out: np.ndarray) -> None:
+    """One inner point's edge mixture with one table colour, through the kernels' passes."""
+    from photomodel.fitness._soft_kernels import mixed_features, slide_mixtures
 
+    work = np.empty((4, 3))
+    slide_mixtures(model_lin, gain, table[None], np.ones(1, dtype=bool), t, work)
+    mixed_features(work, 0, out)
+
+
+def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
     navy = log_opponent(np.array([[[90, 40, 30]]], dtype=np.uint8))[0, 0].astype(float)
     table = log_opponent(np.array([[[200, 205, 210]]], dtype=np.uint8))[0, 0].astype(float)
     out = np.empty(3)
@@ -305,6 +313,44 @@ def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
     o = np.array([-0.3, 0.0, 0.0])
     _edge_mixture(linear_intensity(navy), linear_intensity(o), table, 0.0, out)
     np.testing.assert_allclose(out, navy + o, atol=1e-12)
+
+
+def test_mix_logs_matches_the_library_exp_and_log() -> None:
+    from photomodel.fitness._kernels import mix_logs
+
+    rng = np.random.default_rng(5)
+    a = np.concatenate([rng.uniform(1e-3, 500.0, 997), [1e-300, 1.0, 3e5]])
+    w = np.concatenate([rng.uniform(-6.0, 9.0, 997), [-700.0, 0.0, 40.0]])
+    for t in (0.0, 0.07, 0.5, 1.0):
+        work = np.empty((4, len(a)))
+        work[0], work[1] = a, w
+        mix_logs(t, work)
+        np.testing.assert_allclose(work[2], t * np.exp(w), rtol=1e-14, atol=0.0)
+        np.testing.assert_allclose(work[3], np.log(a + t * np.exp(w)), rtol=1e-14, atol=1e-14)
+
+
+def test_ring_mixtures_cover_the_ring_and_skip_unseen_tables() -> None:
+    from photomodel.fitness._soft_kernels import mixed_features, ring_mixtures, ring_size
+
+    table_out = np.array([2, -1, 0, 1, -1, -1], dtype=np.int64)
+    assert ring_size(table_out) == 4
+    assert ring_size(np.full(3, -1, dtype=np.int64)) == 0
+    rng = np.random.default_rng(6)
+    lin = rng.uniform(10.0, 200.0, (6, 3))
+    band = rng.normal(4.0, 0.3, (3, 3))
+    band_ok = np.array([True, False, True])
+    gain = np.array([1.1, 0.9, 1.0])
+    work = np.empty((4, 3 * 4))
+    ring_mixtures(lin, gain, table_out, band, band_ok, 0.3, work)
+    out = np.empty(3)
+    expected = np.empty(3)
+    for j in (0, 2):       # 3 has an unseen table (band point 1), 1 none
+        mixed_features(work, j, out)
+        _edge_mixture(lin[j], gain, band[table_out[j]], 0.3, expected)
+        np.testing.assert_allclose(out, expected, rtol=1e-14)
+        to_logs = np.linalg.inv(_OPPONENT_FROM_LOGS)
+        logs = np.log(0.7 * lin[j] * gain + 0.3 * np.exp(to_logs @ band[table_out[j]]))
+        np.testing.assert_allclose(out, _OPPONENT_FROM_LOGS @ logs, rtol=1e-13)
 
 
 def test_edge_mix_takes_the_depth_bias_off_a_dark_garment() -> None:

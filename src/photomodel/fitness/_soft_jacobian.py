@@ -35,6 +35,9 @@ from photomodel.fitness._soft_kernels import (
     _OPPONENT,
     _bilinear_cell,
     _light_gain,
+    mixed_features,
+    ring_mixtures,
+    ring_size,
     soft_args_type,
 )
 from photomodel.search._kernel_loops import kernel_normal_equations
@@ -99,25 +102,21 @@ def _add_gradient(g9, r, scale, du, dv, jac, x, y, w, a3):  # pragma: no cover -
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _mixture_slope(model_lin, gain, table, t, out, slope):  # pragma: no cover - compiled
-    """``_edge_mixture`` into ``out``, and ``slope`` (3, 3) = d out / d table: log channel
-    ``k`` mixes ``(1 - t) model gain + t exp(w_k)``, ``w_k`` the table's log channel."""
+def _mixture_slope(work, j, model_lin, gain, t, out, slope):  # pragma: no cover - compiled
+    """Ring point ``j``'s edge mixture in ``work`` (:func:`ring_mixtures`) into ``out``, and
+    ``slope`` (3, 3) = d out / d table: log channel ``k`` mixes ``(1 - t) model gain + t
+    exp(w_k)``, ``w_k`` the table's log channel, so it moves by the table's share of it."""
+    mixed_features(work, j, out)
+    n = work.shape[1] // 3
     for c in range(3):
-        out[c] = 0.0
-        for j in range(3):
-            slope[c, j] = 0.0
+        for i in range(3):
+            slope[c, i] = 0.0
     for k in range(3):
-        w = 0.0
-        for j in range(3):
-            w += _LOGS[k, j] * table[j]
-        seen = t * np.exp(w)
-        total = (1.0 - t) * model_lin[k] * gain[k] + seen
-        mixed = np.log(total)
-        share = seen / total
+        seen = work[2, k * n + j]
+        share = seen / ((1.0 - t) * model_lin[k] * gain[k] + seen)
         for c in range(3):
-            out[c] += _OPPONENT[c, k] * mixed
-            for j in range(3):
-                slope[c, j] += _OPPONENT[c, k] * share * _LOGS[k, j]
+            for i in range(3):
+                slope[c, i] += _OPPONENT[c, k] * share * _LOGS[k, i]
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
@@ -168,7 +167,7 @@ def _to_genes(dX, g9, m9, kron, cross9, gradient, metric, cross_o):  # pragma: n
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scale, table_out,
                              mix_t, lin_in, o, weights, wb_weight, band, band_slope, band_jac,
-                             band_ok, proj, gradient, metric, hess_o, cross_o,
+                             band_ok, proj, mix_work, gradient, metric, hess_o, cross_o,
                              slope_o):  # pragma: no cover - compiled
     """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
     the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
@@ -176,7 +175,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     docstring) and taken to the genes at the end; ``band`` (N_out, 3), ``band_slope`` (N_out,
     3, 2), ``band_jac`` (N_out, 2, 3) and ``band_ok`` are work space: a band point's sample,
     its slopes and its projection's Jacobian, for the inner ring's edge mixture; ``proj``
-    (8, max(N_in, N_out)) too: the points' pixels and their Jacobians, one loop each set."""
+    (8, max(N_in, N_out)) too: the points' pixels and their Jacobians, one loop each set;
+    ``mix_work`` (4, 3 ring_size(table_out)) the edge mixtures' (:func:`ring_mixtures`)."""
     n_in = p_in.shape[0]
     n_out = p_out.shape[0]
     W = np.empty(3)
@@ -227,6 +227,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                       a * weights[n_in + j], a3)
         for c in range(3):
             slope_sum[c] -= a * scale[c] * r[c] / n_out
+    if mix_t > 0.0:
+        ring_mixtures(lin_in, gain, table_out, band, band_ok, mix_t, mix_work)
     plane_pixel_jacobians(M, t, K, D, p_in, proj)
     for j in range(n_in):
         x = p_in[j, 0]
@@ -259,7 +261,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
         if mix_t > 0.0 and k >= 0 and band_ok[k]:
             # The expected colour moves with the band's sample: d expected = slope d band;
             # d expected / d o = I - slope (the offsets' gain on the model's share).
-            _mixture_slope(lin_in[j], gain, band[k], mix_t, expected, slope)
+            _mixture_slope(mix_work, j, lin_in[j], gain, mix_t, expected, slope)
             for c in range(3):
                 r[c] = (sample[c] - expected[c]) * scale[c]
             a = _agreement(r)
@@ -368,17 +370,18 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
         band_jac = np.empty((n_out, 2, 3))
         band_ok = np.empty(n_out, dtype=np.bool_)
         proj = np.empty((8, max(p_in.shape[0], n_out)))
+        mix_work = np.empty((4, 3 * ring_size(table_out)))
         if cam == 0:
             _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, out_gradient[0], out_metric[0],
+                                     band_ok, proj, mix_work, out_gradient[0], out_metric[0],
                                      out_hess_o[0], out_cross_o[0], out_slope_o[0])
         else:
             _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, out_gradient[1], out_metric[1],
+                                     band_ok, proj, mix_work, out_gradient[1], out_metric[1],
                                      out_hess_o[1], out_cross_o[1], out_slope_o[1])
 
 

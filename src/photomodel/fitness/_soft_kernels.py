@@ -6,7 +6,8 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import overload
 
-from photomodel.fitness._kernels import camera2_pose, exp_neg, plane_pixel, plane_pixels
+from photomodel.fitness._kernels import (camera2_pose, exp_neg, mix_logs, plane_pixel,
+                                         plane_pixels)
 from photomodel.search._kernel_loops import kernel_values
 
 _OFFSET_ITERATIONS = 3
@@ -94,29 +95,77 @@ def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cov
     return exp_neg(0.5 * best)
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def ring_size(table_out):  # pragma: no cover - compiled
+    """Inner points up to the last one with a band point in ``table_out`` (the inner ring
+    comes first, the interior after it): the ones :func:`ring_mixtures` covers."""
+    n = table_out.shape[0]
+    while n > 0 and table_out[n - 1] < 0:
+        n -= 1
+    return n
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: no cover
+    """The edge mixture of each of the ``n = work.shape[1] // 3`` first inner points with a
+    band point ``table_out[j] >= 0`` whose sample ``band`` (N_out, 3) is ``band_ok``: its
+    model colour mixed with the fraction ``t`` of the scene's table colour seen at that band
+    point, in linear intensity (as the optics and the pixel mix them), not in the logarithms.
+    ``work[3, k n + j]`` = log channel ``k`` (B', G', R') of point ``j``'s expected colour
+    and ``work[2, k n + j]`` the table's part of its intensity (:func:`mix_logs`; the
+    others' entries are of no use). The model colour is given linear, ``lin_in`` = exp of
+    its log channels, and takes the scene's offsets as the factors ``gain`` = exp of the
+    offsets' log channels (intensities + LOG_OFFSET mix as intensities do: the offset
+    carries through). Laid out by channel so that the exponentials and logarithms run in
+    one loop that vectorises (the library's scalar ones were a fifth of a fitness
+    evaluation)."""
+    n = work.shape[1] // 3
+    for k in range(3):
+        for j in range(n):
+            b = table_out[j]
+            if b >= 0 and band_ok[b]:
+                work[0, k * n + j] = (1.0 - t) * lin_in[j, k] * gain[k]
+                work[1, k * n + j] = (_LOGS[k, 0] * band[b, 0] + _LOGS[k, 1] * band[b, 1]
+                                      + _LOGS[k, 2] * band[b, 2])
+            else:
+                work[0, k * n + j] = 1.0
+                work[1, k * n + j] = 0.0
+    mix_logs(t, work)
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover - compiled
+    """:func:`ring_mixtures` of one inner point, its linear model colour ``lin`` (3,), with
+    each of the ``n = work.shape[1] // 3`` table colours ``tables`` (n, 3) that is
+    ``tables_ok`` (its band point's samples at the score's slides)."""
+    n = work.shape[1] // 3
+    for k in range(3):
+        own = (1.0 - t) * lin[k] * gain[k]
+        for q in range(n):
+            if tables_ok[q]:
+                work[0, k * n + q] = own
+                work[1, k * n + q] = (_LOGS[k, 0] * tables[q, 0] + _LOGS[k, 1] * tables[q, 1]
+                                      + _LOGS[k, 2] * tables[q, 2])
+            else:
+                work[0, k * n + q] = 1.0
+                work[1, k * n + q] = 0.0
+    mix_logs(t, work)
+
+
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")
-def _edge_mixture(model_lin, gain, table, t, out):  # pragma: no cover - compiled
-    """``out`` = the features (l, a, b) of a model colour mixed with the fraction ``t`` of the
-    scene's ``table`` colour (features), in linear intensity (as the optics and the pixel mix
-    them), not in the logarithms. The model colour is given linear, ``model_lin`` = exp of
-    its log channels (B', G', R'), and takes the scene's offsets as the factors ``gain`` =
-    exp of the offsets' log channels."""
+def mixed_features(work, j, out):  # pragma: no cover - compiled
+    """``out`` = the features (l, a, b) of ring point ``j``'s edge mixture in ``work``
+    (:func:`ring_mixtures`)."""
+    n = work.shape[1] // 3
     for c in range(3):
-        out[c] = 0.0
-    for k in range(3):   # log channel k (B', G', R'), then its share of l, a, b
-        w = 0.0
-        for j in range(3):
-            w += _LOGS[k, j] * table[j]
-        # Intensities + LOG_OFFSET mix as intensities do: the offset carries through.
-        mixed = np.log((1.0 - t) * model_lin[k] * gain[k] + t * np.exp(w))
-        for c in range(3):
-            out[c] += _OPPONENT[c, k] * mixed
+        out[c] = (_OPPONENT[c, 0] * work[3, j] + _OPPONENT[c, 1] * work[3, n + j]
+                  + _OPPONENT[c, 2] * work[3, 2 * n + j])
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
                   inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff, valid,
-                  band, band_ok, pix, out):  # pragma: no cover - compiled
+                  band, band_ok, pix, mix_work, out):  # pragma: no cover - compiled
     """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
 
     With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
@@ -128,7 +177,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     B', G', R'). ``buf`` (N_in, 3), ``diff`` (3, N_in), ``valid`` (N_in,), ``band`` (N_out,
     3), ``band_ok`` (N_out,) and ``pix`` (2, max(N_in, N_out)) are work space: the samples,
     their differences to the model's colours by channel, whether they fell inside the image
-    (1.0 or 0.0) and the points' pixels.
+    (1.0 or 0.0) and the points' pixels; ``mix_work`` (4, 3 ring_size(table_out)) the edge
+    mixtures' (:func:`ring_mixtures`).
     """
     use_palette = palette.shape[0] > 0
     n_in = p_in.shape[0]
@@ -210,10 +260,11 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
         expected = np.empty(3)
         gain = np.empty(3)
         _light_gain(o, gain)
-        for j in range(n_in):
+        ring_mixtures(lin_in, gain, table_out, band, band_ok, mix_t, mix_work)
+        for j in range(mix_work.shape[1] // 3):
             k = table_out[j]
             if valid[j] > 0.0 and k >= 0 and band_ok[k]:
-                _edge_mixture(lin_in[j], gain, band[k], mix_t, expected)
+                mixed_features(mix_work, j, expected)
                 s_in -= exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
                                                  inv_var_l, inv_var_c))
                 for c in range(3):   # so that diff - o = sample - expected
@@ -279,12 +330,13 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         band = np.empty((p_out.shape[0], 3))
         band_ok = np.empty(p_out.shape[0], dtype=np.bool_)
         pix = np.empty((2, max(n_in, p_out.shape[0])))
+        mix_work = np.empty((4, 3 * ring_size(table_out)))
         for q in range(lane, pairs, lanes):
             p = q // 2
             R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
             _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
                           inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
-                          valid, band, band_ok, pix, out_terms[p, q % 2])
+                          valid, band, band_ok, pix, mix_work, out_terms[p, q % 2])
     for p in range(Rs.shape[0]):
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
 
@@ -336,10 +388,11 @@ def _kernel_values(T, lanes, args):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c, table_out,
-                      mix_t, lin_in, o, band, out_r, out_ok):  # pragma: no cover - compiled
+                      mix_t, lin_in, o, band, mix_work, out_r, out_ok):  # pragma: no cover
     """Residuals of one camera at fixed light offsets ``o``: ``out_r`` (N_in + N_out, 3)
     the scaled colour differences (inner points first, then the band), ``out_ok`` whether
-    each sample fell inside the image. ``band`` (N_out, 3) is work space."""
+    each sample fell inside the image. ``band`` (N_out, 3) and ``mix_work`` (4, 3
+    ring_size(table_out)) are work space."""
     n_in = p_in.shape[0]
     sample = np.empty(3)
     expected = np.empty(3)
@@ -353,12 +406,14 @@ def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_
         out_r[n_in + j, 0] = (sample[0] - f_out[j, 0] - o[0]) * scale_l
         out_r[n_in + j, 1] = (sample[1] - f_out[j, 1] - o[1]) * scale_c
         out_r[n_in + j, 2] = (sample[2] - f_out[j, 2] - o[2]) * scale_c
+    if mix_t > 0.0:
+        ring_mixtures(lin_in, gain, table_out, band, out_ok[n_in:], mix_t, mix_work)
     for j in range(n_in):
         ok = _sample_point(R, t, K, D, p_in[j, 0], p_in[j, 1], img, sample)
         out_ok[j] = ok
         k = table_out[j]
         if ok and mix_t > 0.0 and k >= 0 and out_ok[n_in + k]:
-            _edge_mixture(lin_in[j], gain, band[k], mix_t, expected)
+            mixed_features(mix_work, j, expected)
             for c in range(3):
                 expected[c] = sample[c] - expected[c]
         else:
@@ -381,12 +436,13 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
     lanes = min(lanes, pairs)
     for lane in prange(lanes):
         band = np.empty((p_out.shape[0], 3))
+        mix_work = np.empty((4, 3 * ring_size(table_out)))
         for q in range(lane, pairs, lanes):
             p = q // 2
             R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
             _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c,
-                              table_out, mix_t, lin_in, offsets[q % 2], band, out_r[p, q % 2],
-                              out_ok[p, q % 2])
+                              table_out, mix_t, lin_in, offsets[q % 2], band, mix_work,
+                              out_r[p, q % 2], out_ok[p, q % 2])
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -441,6 +497,7 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
         sums = np.zeros((cells, 3, S))
         d2 = np.empty(S)
         a = np.empty(S)
+        mix_work = np.empty((4, 3 * S))
         for j in range(n_out):
             u0, v0, du_x, dv_x, du_y, dv_y = _plane_affine(M, t, K, D, p_out[j, 0], p_out[j, 1])
             c = cell_out[j]
@@ -465,12 +522,14 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
             c = cell_in[j]
             mix = table_out[j]
             pair = pair_out[j]
+            if mix_t > 0.0 and mix >= 0:
+                slide_mixtures(lin_in[j], gain, band[mix], band_ok[mix], mix_t, mix_work)
             for q in range(S):
                 u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
                 v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
                 inside[q] = _bilinear(img, u, v, sample)
                 if inside[q] and mix_t > 0.0 and mix >= 0 and band_ok[mix, q]:
-                    _edge_mixture(lin_in[j], gain, band[mix, q], mix_t, expected)
+                    mixed_features(mix_work, q, expected)
                     for k in range(3):   # so that diff - o = sample - expected
                         diff[k] = sample[k] - expected[k] + o[k]
                 else:
