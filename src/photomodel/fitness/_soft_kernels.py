@@ -6,8 +6,7 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import overload
 
-from photomodel.fitness._kernels import (camera2_pose, exp_neg, mix_logs, plane_pixel,
-                                         plane_pixels)
+from photomodel.fitness._kernels import camera2_pose, exp_neg, mix_logs, plane_pixel, plane_pixels
 from photomodel.search._kernel_loops import kernel_values
 
 _OFFSET_ITERATIONS = 3
