@@ -164,11 +164,168 @@ def _to_genes(dX, g9, m9, kron, cross9, gradient, metric, cross_o):  # pragma: n
                 metric[gg, g] += s
 
 
+_BLOCK = 128
+"""Interior points a block of :func:`_plain_sums`; its work space is ``_ROWS`` rows of it."""
+_ROWS = 47
+# The rows of _plain_sums' work space: (x, y, 1) of the model point, whether its sample
+# fell inside the image, the plain differences e and the samples' slopes along the image
+# axes by channel; then the products: the offsets' cross rows a3 (channel, axis) and
+# -w J^T r's (axis), the inner metric's factors by unique entries, a W e and W e, a.
+_Q, _OK, _E, _DU, _DV, _L, _PU, _QU, _AW, _WE, _A = 0, 3, 4, 7, 10, 13, 28, 34, 40, 43, 46
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _dot_rows(work, r1, r2, n):  # pragma: no cover - compiled
+    """The sum over the block's ``n`` points of rows ``r1`` and ``r2``' products."""
+    s = 0.0
+    for m in range(n):
+        s += work[r1 * _BLOCK + m] * work[r2 * _BLOCK + m]
+    return s
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _plain_sums(j0, j1, proj, img, p_in, f_in, o, W, weights, n_in, work, g9, kron, cross9,
+                hess, slope_sum):  # pragma: no cover - compiled
+    """The sums of :func:`_camera_normal_equations`' point loop over inner points ``j0`` to
+    ``j1`` whose residual is the plain difference (no edge mixture): ``g9``, ``kron``,
+    ``cross9``, ``hess`` and ``slope_sum`` as that loop adds them, in blocks of ``_BLOCK``
+    points laid out by point (``work`` (_ROWS * _BLOCK,)): the samples one point at a time,
+    then the per-point products and the sums over the block as passes that vectorise (one
+    flat array whose rows lie a constant ``_BLOCK`` apart, so that the compiler sees the
+    passes' writes never meet their reads; the point loop ran each point's 80-odd products
+    one after the other)."""
+    B = _BLOCK
+    sample = np.empty(3)
+    du = np.empty(3)
+    dv = np.empty(3)
+    acc = np.zeros((15, 3))
+    sum_a = 0.0
+    for b0 in range(j0, j1, B):
+        n = min(B, j1 - b0)
+        for m in range(n):
+            j = b0 + m
+            inside = _bilinear_slope(img, proj[0, j], proj[1, j], sample, du, dv)
+            work[_OK * B + m] = 1.0 if inside else 0.0
+            for c in range(3):
+                work[(_E + c) * B + m] = sample[c] - f_in[j, c] - o[c] if inside else 0.0
+                work[(_DU + c) * B + m] = du[c] if inside else 0.0
+                work[(_DV + c) * B + m] = dv[c] if inside else 0.0
+            work[_Q * B + m] = p_in[j, 0]
+            work[(_Q + 1) * B + m] = p_in[j, 1]
+            work[(_Q + 2) * B + m] = 1.0
+        for m in range(n):
+            j = b0 + m
+            e0 = work[_E * B + m]
+            e1 = work[(_E + 1) * B + m]
+            e2 = work[(_E + 2) * B + m]
+            we0 = W[0] * e0
+            we1 = W[1] * e1
+            we2 = W[2] * e2
+            plain = work[_OK * B + m] * exp_neg(0.5 * (e0 * we0 + e1 * we1 + e2 * we2))
+            a = plain / n_in
+            w = plain * weights[j]
+            inner = w if weights[j] > 0.0 else 0.0
+            du0 = work[_DU * B + m]
+            du1 = work[(_DU + 1) * B + m]
+            du2 = work[(_DU + 2) * B + m]
+            dv0 = work[_DV * B + m]
+            dv1 = work[(_DV + 1) * B + m]
+            dv2 = work[(_DV + 2) * B + m]
+            wdu = we0 * du0 + we1 * du1 + we2 * du2
+            wdv = we0 * dv0 + we1 * dv1 + we2 * dv2
+            work[_A * B + m] = a
+            work[_AW * B + m] = a * we0
+            work[(_AW + 1) * B + m] = a * we1
+            work[(_AW + 2) * B + m] = a * we2
+            work[_WE * B + m] = we0
+            work[(_WE + 1) * B + m] = we1
+            work[(_WE + 2) * B + m] = we2
+            # the offsets' cross rows a3 (c, i) = a W_c (I - e e^T W) d sample / d pixel . jac
+            u0 = a * (W[0] * du0 - we0 * wdu)
+            u1 = a * (W[1] * du1 - we1 * wdu)
+            u2 = a * (W[2] * du2 - we2 * wdu)
+            v0 = a * (W[0] * dv0 - we0 * wdv)
+            v1 = a * (W[1] * dv1 - we1 * wdv)
+            v2 = a * (W[2] * dv2 - we2 * wdv)
+            ju0 = proj[2, j]
+            ju1 = proj[3, j]
+            ju2 = proj[4, j]
+            jv0 = proj[5, j]
+            jv1 = proj[6, j]
+            jv2 = proj[7, j]
+            work[_L * B + m] = u0 * ju0 + v0 * jv0
+            work[(_L + 1) * B + m] = u0 * ju1 + v0 * jv1
+            work[(_L + 2) * B + m] = u0 * ju2 + v0 * jv2
+            work[(_L + 3) * B + m] = u1 * ju0 + v1 * jv0
+            work[(_L + 4) * B + m] = u1 * ju1 + v1 * jv1
+            work[(_L + 5) * B + m] = u1 * ju2 + v1 * jv2
+            work[(_L + 6) * B + m] = u2 * ju0 + v2 * jv0
+            work[(_L + 7) * B + m] = u2 * ju1 + v2 * jv1
+            work[(_L + 8) * B + m] = u2 * ju2 + v2 * jv2
+            work[(_L + 9) * B + m] = -w * (wdu * ju0 + wdv * jv0)
+            work[(_L + 10) * B + m] = -w * (wdu * ju1 + wdv * jv1)
+            work[(_L + 11) * B + m] = -w * (wdu * ju2 + wdv * jv2)
+            # J row c = a_c (x) q, a_c = scale_c (du_c jac_u + dv_c jac_v): the inner metric
+            # (w sum_c a_c a_c^T) (x) q q^T by the factors' unique entries.
+            p0 = 0.0
+            p1 = 0.0
+            p2 = 0.0
+            p3 = 0.0
+            p4 = 0.0
+            p5 = 0.0
+            for c in range(3):
+                dc = work[(_DU + c) * B + m]
+                ec = work[(_DV + c) * B + m]
+                a0 = dc * ju0 + ec * jv0
+                a1 = dc * ju1 + ec * jv1
+                a2 = dc * ju2 + ec * jv2
+                f = inner * W[c]
+                p0 += f * a0 * a0
+                p1 += f * a1 * a0
+                p2 += f * a1 * a1
+                p3 += f * a2 * a0
+                p4 += f * a2 * a1
+                p5 += f * a2 * a2
+            work[_PU * B + m] = p0
+            work[(_PU + 1) * B + m] = p1
+            work[(_PU + 2) * B + m] = p2
+            work[(_PU + 3) * B + m] = p3
+            work[(_PU + 4) * B + m] = p4
+            work[(_PU + 5) * B + m] = p5
+            x = work[_Q * B + m]
+            y = work[(_Q + 1) * B + m]
+            work[_QU * B + m] = x * x
+            work[(_QU + 1) * B + m] = y * x
+            work[(_QU + 2) * B + m] = y * y
+            work[(_QU + 3) * B + m] = x
+            work[(_QU + 4) * B + m] = y
+            work[(_QU + 5) * B + m] = 1.0
+        for r in range(15):
+            for b in range(3):
+                acc[r, b] += _dot_rows(work, _L + r, _Q + b, n)
+        for k in range(6):
+            for kk in range(6):
+                kron[k, kk] += _dot_rows(work, _PU + k, _QU + kk, n)
+        for c in range(3):
+            slope_sum[c] += _dot_rows(work, _AW + c, _Q + 2, n)
+            for mm in range(3):
+                hess[c, mm] += _dot_rows(work, _AW + c, _WE + mm, n)
+        sum_a += _dot_rows(work, _A, _Q + 2, n)
+    for c in range(3):
+        hess[c, c] -= W[c] * sum_a
+        for i in range(3):
+            for b in range(3):
+                cross9[c, 3 * i + b] += acc[3 * c + i, b]
+    for i in range(3):
+        for b in range(3):
+            g9[3 * i + b] += acc[9 + i, b]
+
+
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scale, table_out,
                              mix_t, lin_in, o, weights, wb_weight, band, band_slope, band_jac,
-                             band_ok, proj, mix_work, gradient, metric, hess_o, cross_o,
-                             slope_o):  # pragma: no cover - compiled
+                             band_ok, proj, mix_work, plain_work, gradient, metric, hess_o,
+                             cross_o, slope_o):  # pragma: no cover - compiled
     """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
     the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
     :func:`soft_normal_kernel`), summed in the model point's 9-dimensional space (the module
@@ -176,7 +333,9 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     3, 2), ``band_jac`` (N_out, 2, 3) and ``band_ok`` are work space: a band point's sample,
     its slopes and its projection's Jacobian, for the inner ring's edge mixture; ``proj``
     (8, max(N_in, N_out)) too: the points' pixels and their Jacobians, one loop each set;
-    ``mix_work`` (4, 3 ring_size(table_out)) the edge mixtures' (:func:`ring_mixtures`)."""
+    ``mix_work`` (4, 3 ring_size(table_out)) the edge mixtures' (:func:`ring_mixtures`) and
+    ``plain_work`` (_ROWS * _BLOCK,) :func:`_plain_sums`' (the points after the ring, or all
+    of them without the mixture)."""
     n_in = p_in.shape[0]
     n_out = p_out.shape[0]
     W = np.empty(3)
@@ -227,10 +386,14 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                       a * weights[n_in + j], a3)
         for c in range(3):
             slope_sum[c] -= a * scale[c] * r[c] / n_out
+    ring = 0     # the inner ring, where the edge mixture may apply, one point at a time
     if mix_t > 0.0:
         ring_mixtures(lin_in, gain, table_out, band, band_ok, mix_t, mix_work)
+        ring = mix_work.shape[1] // 3
     plane_pixel_jacobians(M, t, K, D, p_in, proj)
-    for j in range(n_in):
+    _plain_sums(ring, n_in, proj, img, p_in, f_in, o, W, weights, n_in, plain_work, g9, kron,
+                cross9, hess, slope_sum)
+    for j in range(ring):
         x = p_in[j, 0]
         y = p_in[j, 1]
         if not _sample_slope(proj, j, img, sample, du, dv, jac):
@@ -371,17 +534,20 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
         band_ok = np.empty(n_out, dtype=np.bool_)
         proj = np.empty((8, max(p_in.shape[0], n_out)))
         mix_work = np.empty((4, 3 * ring_size(table_out)))
+        plain_work = np.empty(_ROWS * _BLOCK)
         if cam == 0:
             _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, mix_work, out_gradient[0], out_metric[0],
+                                     band_ok, proj, mix_work, plain_work, out_gradient[0],
+                                     out_metric[0],
                                      out_hess_o[0], out_cross_o[0], out_slope_o[0])
         else:
             _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
                                      weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, mix_work, out_gradient[1], out_metric[1],
+                                     band_ok, proj, mix_work, plain_work, out_gradient[1],
+                                     out_metric[1],
                                      out_hess_o[1], out_cross_o[1], out_slope_o[1])
 
 
