@@ -315,6 +315,30 @@ def test_edge_mixture_mixes_intensities_not_logarithms() -> None:
     np.testing.assert_allclose(out, navy + o, atol=1e-12)
 
 
+@pytest.mark.parametrize("level", [0, 2])
+def test_colourings_evaluated_together_equal_each_on_its_own(level: int) -> None:
+    """The camera blurs' fitnesses of one pose in one pass over the images give each one's
+    own evaluation to the bit, and its terms; a fitness of other points is evaluated alone."""
+    model, rig, right, left, T_true, _ = _case("No.2", "gripper")
+    features = StereoFeatures(rig, right, left)
+    blurs = (0.5, 1.0, 2.0)
+    T = T_true.copy()
+    T[:3, 3] += (0.4, -0.3, 1.5)
+    alone = [SoftFitness(model, features, level, optics_blur_mm=b) for b in blurs]
+    expected = np.array([f.evaluate_transforms(T[None])[0] for f in alone])
+    terms = [f.last_terms.copy() for f in alone]
+    together = [SoftFitness(model, features, level, optics_blur_mm=b) for b in blurs]
+    got = together[0].evaluate_colourings(together[1:], T)
+    np.testing.assert_array_equal(got, expected)
+    for f, t in zip(together, terms, strict=True):
+        np.testing.assert_array_equal(f.last_terms, t)
+        np.testing.assert_array_equal(f.last_offsets(), t[0, :, 3:6])
+    other = SoftFitness(model, features, level + 1)
+    assert not together[0]._same_points(other)
+    mixed = together[0].evaluate_colourings([other], T)
+    np.testing.assert_array_equal(mixed, [expected[0], other.evaluate_transforms(T[None])[0]])
+
+
 def test_mix_logs_matches_the_library_exp_and_log() -> None:
     from photomodel.fitness._kernels import mix_logs
 
@@ -325,7 +349,7 @@ def test_mix_logs_matches_the_library_exp_and_log() -> None:
         work = np.empty((4, len(a)))
         work[0], work[1] = a, w
         mix_logs(t, work)
-        np.testing.assert_allclose(work[2], t * np.exp(w), rtol=1e-14, atol=0.0)
+        np.testing.assert_allclose(work[2], t * np.exp(w), rtol=5e-14, atol=0.0)
         np.testing.assert_allclose(work[3], np.log(a + t * np.exp(w)), rtol=1e-14, atol=1e-14)
 
 

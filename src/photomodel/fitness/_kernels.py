@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from llvmlite import ir
+from numba import njit, prange, types
+from numba.extending import intrinsic
 
 _EXP_NEG_MAX = 60.0
 """Largest argument :func:`exp_neg` evaluates (exp(-60) = 9e-27: no agreement counts)."""
@@ -30,65 +32,70 @@ def exp_neg(y):  # pragma: no cover - compiled
 _LOG2E = 1.4426950408889634
 _LN2_HI = 6.93147180369123816490e-01
 _LN2_LO = 1.90821492927058770002e-10
-"""ln 2 in two parts: ``n * _LN2_HI`` is exact for the exponents met here."""
-_ROUNDER = 6755399441055744.0
-"""1.5 * 2**52: ``x + _ROUNDER`` rounds x to an integer, which its low bits then hold."""
-_ROUNDER_BITS = 0x4338000000000000
-"""The bits of ``_ROUNDER``."""
+"""ln 2 in two parts: ``k * _LN2_HI`` is exact for the exponents met here."""
 _MANTISSA = 0x000FFFFFFFFFFFFF
 _ONE_BITS = 0x3FF0000000000000
 _SQRT2 = 1.4142135623730951
 
 
-@njit(cache=True, fastmath={"contract"}, error_model="numpy")
+@intrinsic
+def _bits(typingctx, x):  # type: ignore[no-untyped-def]
+    """The bits of the float64 ``x`` as an int64 (a register move, no memory)."""
+    if x != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, i):  # type: ignore[no-untyped-def]
+    """The float64 whose bits are the int64 ``i``."""
+    if i != types.int64:
+        return None
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
 def mix_logs(t, work):  # pragma: no cover - compiled
     """``work[2] = t exp(w)`` and ``work[3] = log(a + t exp(w))`` elementwise, for ``a > 0``
-    in ``work[0]`` and ``w`` in ``work[1]`` (``work`` (4, n) C-contiguous; rows 0 and 1 are
-    overwritten): the edge mixture's exponentials and logarithms, to about 1e-14 relative.
+    in ``work[0]`` and ``w`` in ``work[1]`` (``work`` (4, n); ``w`` clipped to +-700): the
+    edge mixture's exponentials and logarithms, to about 1e-14 relative (3e-14 near +-700).
 
     Numba without Intel's SVML calls the scalar library ``exp`` and ``log`` once per element;
-    these loops are plain arithmetic and integer operations on the floats' bits (the exponent
-    by Cody-Waite reduction and a rounding constant, the mantissa through ``atanh``'s series),
-    so each vectorises. Not ``fastmath``: the rounding constant must not be reassociated away.
+    this loop is plain arithmetic and integer operations on the floats' bits (``2**k`` and
+    the exponent through them, Taylor's series of ``exp`` and ``atanh``'s of ``log``), so it
+    vectorises. Safe under ``fastmath``, which a caller's passes apply to what they inline
+    whatever this function's own flags: no step relies on the order of additions (a
+    rounding constant added and taken off again did, and was folded away).
     """
-    n = work.shape[1]
-    a = work[0]
-    w = work[1]
-    seen = work[2]
-    mixed = work[3]
-    rounded = seen                          # w / ln 2 + _ROUNDER, then t exp(w)
-    for i in range(n):
-        rounded[i] = min(max(w[i], -700.0), 700.0) * _LOG2E + _ROUNDER
-    bits = rounded.view(np.int64)
-    powers = mixed.view(np.int64)           # 2**round(w / ln 2), then the logarithm
-    for i in range(n):
-        powers[i] = (bits[i] - _ROUNDER_BITS + 1023) << 52
-    for i in range(n):
-        k = rounded[i] - _ROUNDER
-        x = min(max(w[i], -700.0), 700.0)
-        r = (x - k * _LN2_HI) - k * _LN2_LO  # |r| <= ln 2 / 2: Taylor to r**11
+    for i in range(work.shape[1]):
+        w = min(max(work[1, i], -700.0), 700.0)
+        k = np.floor(w * _LOG2E + 0.5)          # round(w / ln 2), and 2**k from its bits
+        power = _from_bits(np.int64(np.int32(k) + 1023) << 52)
+        r = (w - k * _LN2_HI) - k * _LN2_LO    # |r| <= ln 2 / 2: Taylor to r**11
         p = 1.0 + r * (1.0 + r * (1.0 / 2.0 + r * (1.0 / 6.0 + r * (1.0 / 24.0 + r * (
             1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0 + r * (1.0 / 40320.0 + r * (
                 1.0 / 362880.0 + r * (1.0 / 3628800.0 + r * (1.0 / 39916800.0)))))))))))
-        seen[i] = t * (p * mixed[i])
-        w[i] = a[i] + seen[i]               # the total, whose logarithm follows
-    total = w.view(np.int64)
-    mantissa = mixed.view(np.int64)
-    exponent = a.view(np.int64)             # _ROUNDER + the biased exponent
-    for i in range(n):
-        mantissa[i] = (total[i] & _MANTISSA) | _ONE_BITS
-        exponent[i] = _ROUNDER_BITS | (total[i] >> 52)
-    for i in range(n):
-        m = mixed[i]
-        e = a[i] - (_ROUNDER + 1023.0)
-        big = m > _SQRT2                    # m in [sqrt(2) / 2, sqrt(2)): |s| < 0.172
+        seen = t * (p * power)
+        total = _bits(work[0, i] + seen)
+        m = _from_bits((total & _MANTISSA) | _ONE_BITS)       # in [1, 2)
+        e = np.float64(np.int32((total >> 52) - 1023))
+        big = m > _SQRT2                        # m in [sqrt(2) / 2, sqrt(2)): |s| < 0.172
         m = 0.5 * m if big else m
         e = e + 1.0 if big else e
         s = (m - 1.0) / (m + 1.0)
-        z = s * s                           # log m = 2 atanh s, to z**8
+        z = s * s                               # log m = 2 atanh s, to z**8
         q = 1.0 + z * (1.0 / 3.0 + z * (1.0 / 5.0 + z * (1.0 / 7.0 + z * (1.0 / 9.0 + z * (
             1.0 / 11.0 + z * (1.0 / 13.0 + z * (1.0 / 15.0 + z * (1.0 / 17.0))))))))
-        mixed[i] = e * _LN2_HI + (2.0 * s * q + e * _LN2_LO)
+        work[2, i] = seen
+        work[3, i] = e * _LN2_HI + (2.0 * s * q + e * _LN2_LO)
 
 
 @njit(cache=True, inline="always", error_model="numpy")

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -44,7 +45,7 @@ from photomodel._owned import owned
 from photomodel.camera import StereoRig
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._soft_jacobian import soft_normal_equations
-from photomodel.fitness._soft_kernels import soft_fitness_terms
+from photomodel.fitness._soft_kernels import soft_colourings_terms, soft_fitness_terms
 from photomodel.geometry import pose_vectors_to_matrices
 from photomodel.image._features import feature_pyramid, log_opponent
 from photomodel.model import PhotoModel
@@ -287,6 +288,43 @@ class SoftFitness:
         T = _f64(np.reshape(T_cam1_model, (-1, 4, 4)))
         f, self.last_terms = soft_fitness_terms(T, numba.get_num_threads(), self._kernel_args)
         return f
+
+    def evaluate_colourings(self, others: Sequence[SoftFitness],
+                            T_cam1_model: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Fitness (1 + len(others),) of this fitness and ``others`` at one map (4, 4), each
+        one's ``last_terms`` set as :meth:`evaluate_transforms` sets it.
+
+        Where ``others`` differ from this fitness only in their colours (the same model and
+        level under other camera blurs: the same sample points, stereo pair and edge table,
+        no palette), each camera samples its image once for all of them
+        (:func:`~photomodel.fitness._soft_kernels.soft_colourings_kernel`), which is most of
+        an evaluation; otherwise each is evaluated on its own. The same values either way.
+        """
+        group = [self, *others]
+        T = _f64(np.reshape(T_cam1_model, (1, 4, 4)))
+        if len(group) < 2 or not all(self._same_points(g) for g in others):
+            return np.array([g.evaluate_transforms(T)[0] for g in group])
+        args = [g._kernel_args for g in group]
+        terms = soft_colourings_terms(
+            T, self._kernel_args, np.stack([a[7] for a in args]),
+            np.stack([a[9] for a in args]), np.array([a[18] for a in args]),
+            np.stack([a[19] for a in args]))
+        for g, t in zip(group, terms, strict=True):
+            g.last_terms = t[None]
+        return 0.5 * (terms[:, 0, 0] + terms[:, 1, 0])
+
+    def _same_points(self, other: SoftFitness) -> bool:
+        """Whether ``other`` differs from this fitness in its colours alone (for
+        :meth:`evaluate_colourings`)."""
+        mine, theirs = self._kernel_args, other._kernel_args
+
+        def same(a: Any, b: Any) -> bool:
+            return a is b or (isinstance(a, np.ndarray) and isinstance(b, np.ndarray)
+                              and a.shape == b.shape and bool(np.array_equal(a, b)))
+
+        return (self.palette_weight == 0.0 and other.palette_weight == 0.0
+                and all(same(mine[i], theirs[i]) for i in (*range(7), 8, 12, 13, 17))
+                and mine[14:17] == theirs[14:17])
 
     def kernel_args(self) -> tuple[Any, ...]:
         """The arguments with which the searches' numba loops evaluate this fitness

@@ -104,7 +104,7 @@ def ring_size(table_out):  # pragma: no cover - compiled
     return n
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: no cover
     """The edge mixture of each of the ``n = work.shape[1] // 3`` first inner points with a
     band point ``table_out[j] >= 0`` whose sample ``band`` (N_out, 3) is ``band_ok``: its
@@ -132,7 +132,7 @@ def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: n
     mix_logs(t, work)
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover - compiled
     """:func:`ring_mixtures` of one inner point, its linear model colour ``lin`` (3,), with
     each of the ``n = work.shape[1] // 3`` table colours ``tables`` (n, 3) that is
@@ -162,10 +162,35 @@ def mixed_features(work, j, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
-def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
-                  inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff, valid,
-                  band, band_ok, pix, mix_work, out):  # pragma: no cover - compiled
-    """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b).
+def _camera_samples(R, t, K, D, p_in, p_out, img, buf, valid, band, band_ok,
+                    pix):  # pragma: no cover - compiled
+    """One camera's samples of the model points at pose ``(R, t)``: ``buf`` (N_in, 3) the
+    inner points', ``valid`` (N_in,) whether each fell inside the image (1.0 or 0.0),
+    ``band`` (N_out, 3) and ``band_ok`` (N_out,) the band's; ``pix`` (2, max(N_in, N_out))
+    is work space (the points' pixels). What :func:`_camera_terms` compares with the
+    model's colours, which several colourings of the same points share."""
+    sample = np.empty(3)
+    plane_pixels(R, t, K, D, p_out, pix)
+    for j in range(p_out.shape[0]):
+        band_ok[j] = _bilinear(img, pix[0, j], pix[1, j], sample)
+        for c in range(3):
+            band[j, c] = sample[c]
+    plane_pixels(R, t, K, D, p_in, pix)
+    for j in range(p_in.shape[0]):
+        ok = _bilinear(img, pix[0, j], pix[1, j], sample)
+        valid[j] = 1.0 if ok else 0.0
+        if ok:
+            for c in range(3):
+                buf[j, c] = sample[c]
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb_weight,
+                  table_out, mix_t, lin_in, buf, diff, valid, band, band_ok, mix_work,
+                  out):  # pragma: no cover - compiled
+    """out[:] = (F_c, mean S_in agreement, mean S_out agreement, o_l, o_a, o_b) of one
+    camera's samples (:func:`_camera_samples`: ``buf``, ``valid``, ``band``, ``band_ok``)
+    against the model colours ``f_in`` (N_in, 3) and ``f_out`` (N_out, 3).
 
     With a non-empty ``palette`` (K, 3) a sample agrees at least ``palette_weight`` times
     as well as its best palette colour (garment anywhere), not only as well as its own
@@ -173,31 +198,19 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
     a band point ``table_out[j] >= 0`` is expected to show its model colour mixed with that
     fraction of the table colour seen at the band point (the blurred edge), once the offsets
     are known; ``lin_in`` (N_in, 3) holds the model colours linear (exp of the log channels
-    B', G', R'). ``buf`` (N_in, 3), ``diff`` (3, N_in), ``valid`` (N_in,), ``band`` (N_out,
-    3), ``band_ok`` (N_out,) and ``pix`` (2, max(N_in, N_out)) are work space: the samples,
-    their differences to the model's colours by channel, whether they fell inside the image
-    (1.0 or 0.0) and the points' pixels; ``mix_work`` (4, 3 ring_size(table_out)) the edge
-    mixtures' (:func:`ring_mixtures`).
+    B', G', R'). ``diff`` (3, N_in) is work space: the samples' differences to the model's
+    colours by channel; ``mix_work`` (4, 3 ring_size(table_out)) the edge mixtures'
+    (:func:`ring_mixtures`).
     """
     use_palette = palette.shape[0] > 0
-    n_in = p_in.shape[0]
-    sample = np.empty(3)
+    n_in = f_in.shape[0]
     o = np.zeros(3)
     n_valid = 0
-    plane_pixels(R, t, K, D, p_out, pix)
-    for j in range(p_out.shape[0]):
-        band_ok[j] = _bilinear(img, pix[0, j], pix[1, j], sample)
-        for c in range(3):
-            band[j, c] = sample[c]
-    plane_pixels(R, t, K, D, p_in, pix)
     for j in range(n_in):
-        ok = _bilinear(img, pix[0, j], pix[1, j], sample)
-        valid[j] = 1.0 if ok else 0.0
-        if ok:
+        if valid[j] > 0.0:
             n_valid += 1
             for c in range(3):
-                buf[j, c] = sample[c]
-                diff[c, j] = sample[c] - f_in[j, c]
+                diff[c, j] = buf[j, c] - f_in[j, c]
                 o[c] += diff[c, j]
         else:     # zero differences: the passes below weigh them by valid = 0
             for c in range(3):
@@ -279,7 +292,7 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
                 s_in += max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
                                                                 inv_var_c))
     s_out = 0.0
-    for j in range(p_out.shape[0]):
+    for j in range(f_out.shape[0]):
         if band_ok[j]:
             a = _agreement(band[j], f_out[j], o, inv_var_l, inv_var_c)
             if use_palette:
@@ -289,8 +302,8 @@ def _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight,
         else:  # no contrast seen where the band leaves the image: as bad as garment there
             s_out += 1.0
     s_in /= n_in
-    if p_out.shape[0] > 0:
-        s_out /= p_out.shape[0]
+    if f_out.shape[0] > 0:
+        s_out /= f_out.shape[0]
     out[0] = s_in - s_out - wb_weight * (o[1] * o[1] + o[2] * o[2])
     out[1] = s_in
     out[2] = s_out
@@ -333,11 +346,70 @@ def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_o
         for q in range(lane, pairs, lanes):
             p = q // 2
             R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
-            _camera_terms(R, t, K, D, p_in, f_in, p_out, f_out, palette, palette_weight, img,
-                          inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in, buf, diff,
-                          valid, band, band_ok, pix, mix_work, out_terms[p, q % 2])
+            _camera_samples(R, t, K, D, p_in, p_out, img, buf, valid, band, band_ok, pix)
+            _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c,
+                          wb_weight, table_out, mix_t, lin_in, buf, diff, valid, band,
+                          band_ok, mix_work, out_terms[p, q % 2])
     for p in range(Rs.shape[0]):
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
+
+
+@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+def soft_colourings_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, p_out, f_ins, f_outs,
+                           img1, img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_ts,
+                           lin_ins, out_terms):  # pragma: no cover - compiled
+    """Fill ``out_terms`` (S, 2, 6) with each camera's terms (as :func:`soft_fitness_kernel`'s,
+    without a palette) at the pose ``Rs[0]``, ``ts[0]`` for S colourings of the same points:
+    ``f_ins`` (S, N_in, 3), ``f_outs`` (S, N_out, 3), ``mix_ts`` (S,), ``lin_ins`` (S, N_in,
+    3) (the model under S camera blurs). Each camera samples its image once, on its own
+    thread; the colourings compare those samples in turn."""
+    n_in = p_in.shape[0]
+    n_out = p_out.shape[0]
+    palette = np.zeros((0, 3))
+    for cam in prange(2):
+        buf = np.empty((n_in, 3))
+        diff = np.empty((3, n_in))
+        valid = np.empty(n_in)
+        band = np.empty((n_out, 3))
+        band_ok = np.empty(n_out, dtype=np.bool_)
+        pix = np.empty((2, max(n_in, n_out)))
+        mix_work = np.empty((4, 3 * ring_size(table_out)))
+        R, t, K, D, img = _pair_camera(cam, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
+        _camera_samples(R, t, K, D, p_in, p_out, img, buf, valid, band, band_ok, pix)
+        for k in range(f_ins.shape[0]):
+            _camera_terms(f_ins[k], f_outs[k], palette, 0.0, inv_var_l, inv_var_c, wb_weight,
+                          table_out, mix_ts[k], lin_ins[k], buf, diff, valid, band, band_ok,
+                          mix_work, out_terms[k, cam])
+
+
+@njit(cache=True, error_model="numpy")
+def _pose_rows(T):  # pragma: no cover - compiled
+    """The rotations (P, 3, 3) (the maps' first three columns) and translations (P, 3) of
+    the maps ``T`` (P, 4, 4), as the kernels take them."""
+    P = T.shape[0]
+    Rs = np.empty((P, 3, 3))
+    ts = np.empty((P, 3))
+    for p in range(P):
+        for i in range(3):
+            ts[p, i] = T[p, i, 3]
+            for j in range(3):
+                Rs[p, i, j] = T[p, i, j]
+    return Rs, ts
+
+
+@njit(cache=True, error_model="numpy")
+def soft_colourings_terms(T, args, f_ins, f_outs, mix_ts, lin_ins):  # pragma: no cover
+    """:func:`soft_colourings_kernel` at the map ``T`` (1, 4, 4) with the fixed arguments of
+    one of the colourings' ``SoftFitness.kernel_args`` (``args``): each colouring's terms
+    (S, 2, 6)."""
+    (R21, T21, K1, D1, K2, D2, p_in, _f_in, p_out, _f_out, _palette, _weight, img1, img2,
+     inv_var_l, inv_var_c, wb_weight, table_out, _mix_t, _lin_in) = args
+    Rs, ts = _pose_rows(T)
+    terms = np.empty((f_ins.shape[0], 2, 6))
+    soft_colourings_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, p_out, f_ins, f_outs, img1,
+                           img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_ts, lin_ins,
+                           terms)
+    return terms
 
 
 @njit(cache=True, error_model="numpy")
@@ -348,13 +420,7 @@ def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
     ``lin_in`` (``SoftFitness.kernel_args``). Called from Python and from the searches'
     numba loops alike (``numba.get_num_threads()`` inside would keep it from the cache)."""
     P = T.shape[0]
-    Rs = np.empty((P, 3, 3))
-    ts = np.empty((P, 3))
-    for p in range(P):
-        for i in range(3):
-            ts[p, i] = T[p, i, 3]
-            for j in range(3):
-                Rs[p, i, j] = T[p, i, j]
+    Rs, ts = _pose_rows(T)
     f = np.empty(P)
     terms = np.empty((P, 2, 6))
     soft_fitness_kernel(Rs, ts, *args, lanes, f, terms)

@@ -43,7 +43,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,6 +52,7 @@ from photomodel.geometry import (
     facing_pose_vectors,
     flat_pose_vectors,
     plane_quat_wxyz,
+    pose_vectors_to_matrices,
     rotation_from_eps,
     strained_matrices,
 )
@@ -476,6 +477,17 @@ def _shift_sweep(objective: Fitness, x: NDArray[np.float64], space: SearchSpace,
     return x, used
 
 
+@runtime_checkable
+class _Colourings(Protocol):
+    """A fitness that evaluates itself and others of the same points in other colours at
+    one map together (``SoftFitness.evaluate_colourings``)."""
+
+    def evaluate_colourings(self, others: Sequence[Any], T_cam1_model: NDArray[np.float64]
+                            ) -> NDArray[np.float64]: ...
+
+    def last_offsets(self) -> NDArray[np.float64]: ...
+
+
 def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
                   config: PyramidConfig, blur_mm: float,
                   strain: NDArray[np.float64] | None = None, climb: bool = False,
@@ -493,37 +505,52 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
     With ``climb`` and ``blur_mm`` among the candidates, only the candidates from it up the
     fitness are evaluated (its two neighbours, then on in the direction that rises while it
     does): the highest of a curve with one peak, in 3 evaluations where it stays, instead of
-    one per candidate (``PyramidConfig.optics_blur_climb``).
+    one per candidate (``PyramidConfig.optics_blur_climb``). Blurs evaluated together (the
+    current one and its neighbours; every candidate without the climb) share one pass over
+    the images where the fitness allows it (``SoftFitness.evaluate_colourings``: the
+    sampling is most of an evaluation).
 
     ``known``: blurs whose fitness at ``x`` (and offsets) the caller has, as the fitness
     returned them (level 0's refinement evaluated its end pose): taken, not evaluated.
     """
-    offsets: dict[float, NDArray[np.float64] | None] = {}
-    known = known or {}
+    computed: dict[float, tuple[float, NDArray[np.float64] | None]] = dict(known or {})
+
+    def evaluate(blurs: Sequence[float]) -> None:
+        """Each of ``blurs`` not yet known, together where the fitness can
+        (``evaluate_colourings``: one pass over the images for them all)."""
+        new = [b for b in dict.fromkeys(blurs) if b not in computed]
+        objectives = [fitness_at(level, 0.0, b) for b in new]
+        if len(new) > 1 and all(isinstance(o, _Colourings) for o in objectives):
+            T = (pose_vectors_to_matrices(x[None]) if strain is None
+                 else strained_matrices(x[None], strain))[0]
+            values = objectives[0].evaluate_colourings(objectives[1:], T)
+            for b, o, f in zip(new, objectives, values, strict=True):
+                computed[b] = (float(f), o.last_offsets())
+            return
+        for b, o in zip(new, objectives, strict=True):
+            f = float(_strained(o, strain)(x[None])[0])
+            computed[b] = (f, o.last_offsets() if conforms(o, ResidualFitness) else None)
 
     def value(b: float) -> float:
-        if b in known:
-            offsets[b] = known[b][1]
-            return known[b][0]
-        objective = fitness_at(level, 0.0, b)
-        f = float(_strained(objective, strain)(x[None])[0])
-        offsets[b] = (objective.last_offsets() if conforms(objective, ResidualFitness)
-                      else None)
-        return f
+        evaluate([b])
+        return computed[b][0]
 
     candidates = tuple(config.optics_blur_candidates_mm)
     if climb and blur_mm in candidates:
         grid = sorted(candidates)
-        tried = _climb(value, grid, grid.index(blur_mm))
+        start = grid.index(blur_mm)
+        evaluate(grid[max(start - 1, 0):start + 2])   # where the climb looks first
+        tried = _climb(value, grid, start)
     else:
+        evaluate((blur_mm, *candidates))
         tried = {b: value(b) for b in dict.fromkeys((blur_mm, *candidates))}
     chosen = blur_mm
     if candidates:
         best = max((b for b in candidates if b in tried), key=tried.__getitem__)
         if tried[best] > tried[blur_mm] + config.optics_blur_margin:
             chosen = best
-    return (chosen, fitness_at(level, 0.0, chosen), (tried[chosen], offsets[chosen]),
-            len(tried.keys() - known.keys()))
+    return (chosen, fitness_at(level, 0.0, chosen), computed[chosen],
+            len(computed.keys() - (known or {}).keys()))
 
 
 def _climb(value: Callable[[float], float], grid: list[float], start: int
