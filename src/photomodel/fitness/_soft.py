@@ -297,8 +297,9 @@ class SoftFitness:
         Where ``others`` differ from this fitness only in their colours (the same model and
         level under other camera blurs: the same sample points, stereo pair and edge table,
         no palette), each camera samples its image once for all of them
-        (:func:`~photomodel.fitness._soft_kernels.soft_colourings_kernel`), which is most of
-        an evaluation; otherwise each is evaluated on its own. The same values either way.
+        (:func:`~photomodel.fitness._soft_kernels.soft_colourings_kernel`; the sampling is a
+        third or more of a level-0 evaluation); otherwise each is evaluated on its own. The
+        same values either way.
         """
         group = [self, *others]
         T = _f64(np.reshape(T_cam1_model, (1, 4, 4)))

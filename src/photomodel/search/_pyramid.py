@@ -507,8 +507,8 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
     does): the highest of a curve with one peak, in 3 evaluations where it stays, instead of
     one per candidate (``PyramidConfig.optics_blur_climb``). Blurs evaluated together (the
     current one and its neighbours; every candidate without the climb) share one pass over
-    the images where the fitness allows it (``SoftFitness.evaluate_colourings``: the
-    sampling is most of an evaluation).
+    the images where the fitness allows it (``SoftFitness.evaluate_colourings``: on level 0
+    three blurs cost about what two did one at a time).
 
     ``known``: blurs whose fitness at ``x`` (and offsets) the caller has, as the fitness
     returned them (level 0's refinement evaluated its end pose): taken, not evaluated.
@@ -520,7 +520,7 @@ def _sharpest_fit(fitness_at: FitnessAt, level: int, x: NDArray[np.float64],
         (``evaluate_colourings``: one pass over the images for them all)."""
         new = [b for b in dict.fromkeys(blurs) if b not in computed]
         objectives = [fitness_at(level, 0.0, b) for b in new]
-        if len(new) > 1 and all(isinstance(o, _Colourings) for o in objectives):
+        if len(new) > 1 and all(conforms(o, _Colourings) for o in objectives):
             T = (pose_vectors_to_matrices(x[None]) if strain is None
                  else strained_matrices(x[None], strain))[0]
             values = objectives[0].evaluate_colourings(objectives[1:], T)
