@@ -104,6 +104,19 @@ def ring_size(table_out):  # pragma: no cover - compiled
     return n
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _mix_inputs(work, i, k, own, table, seen):  # pragma: no cover - compiled
+    """Entry ``i`` of :func:`mix_logs`' inputs: ``own`` (the model's part of log channel
+    ``k``'s intensity) and the table colour ``table``'s log channel ``k`` where the table is
+    ``seen``; else 1 and 0, an entry whose result goes unused."""
+    if seen:
+        work[0, i] = own
+        work[1, i] = _LOGS[k, 0] * table[0] + _LOGS[k, 1] * table[1] + _LOGS[k, 2] * table[2]
+    else:
+        work[0, i] = 1.0
+        work[1, i] = 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: no cover
     """The edge mixture of each of the ``n = work.shape[1] // 3`` first inner points with a
@@ -122,13 +135,8 @@ def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: n
     for k in range(3):
         for j in range(n):
             b = table_out[j]
-            if b >= 0 and band_ok[b]:
-                work[0, k * n + j] = (1.0 - t) * lin_in[j, k] * gain[k]
-                work[1, k * n + j] = (_LOGS[k, 0] * band[b, 0] + _LOGS[k, 1] * band[b, 1]
-                                      + _LOGS[k, 2] * band[b, 2])
-            else:
-                work[0, k * n + j] = 1.0
-                work[1, k * n + j] = 0.0
+            _mix_inputs(work, k * n + j, k, (1.0 - t) * lin_in[j, k] * gain[k], band[b],
+                        b >= 0 and band_ok[b])
     mix_logs(t, work)
 
 
@@ -141,13 +149,7 @@ def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover -
     for k in range(3):
         own = (1.0 - t) * lin[k] * gain[k]
         for q in range(n):
-            if tables_ok[q]:
-                work[0, k * n + q] = own
-                work[1, k * n + q] = (_LOGS[k, 0] * tables[q, 0] + _LOGS[k, 1] * tables[q, 1]
-                                      + _LOGS[k, 2] * tables[q, 2])
-            else:
-                work[0, k * n + q] = 1.0
-                work[1, k * n + q] = 0.0
+            _mix_inputs(work, k * n + q, k, own, tables[q], tables_ok[q])
     mix_logs(t, work)
 
 
