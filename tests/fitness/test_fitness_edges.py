@@ -110,3 +110,86 @@ def test_a_wrinkled_striped_shirt_at_a_good_pose_is_found() -> None:
     threshold = load_threshold().min_score
     assert rigid < threshold <= result.score
     assert result.found
+
+
+def _slid_sums_reference(fitness: SoftFitness, T: np.ndarray, shifts: np.ndarray,
+                         offsets: np.ndarray, cell_in: np.ndarray, cell_out: np.ndarray,
+                         cells: int) -> np.ndarray:
+    """``SoftFitness.slack_sums`` written out in numpy (level 0) from its docstring: each
+    point's pixel moved by the projection's forward differences over 1 mm along the model's
+    x and y, times the slide."""
+    s, feats = fitness.samples, fitness.features
+    m = feats.match
+    iv_l, iv_c = 1.0 / m.sigma_l**2, 1.0 / m.sigma_c**2
+    opponent = np.array([[1 / 3, 1 / 3, 1 / 3], [0.0, -1.0, 1.0], [-1.0, 0.5, 0.5]])
+    to_logs = np.linalg.inv(opponent)
+    t = fitness.edge_mix_fraction
+    table = s.table_out if s.table_out is not None else np.full(len(s.p_in), -1)
+
+    def pixels(points: np.ndarray) -> np.ndarray:    # (3 [at, +x, +y], 2 cams, N, 2)
+        out = []
+        for step in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)):
+            p = np.column_stack([points[:, :2] + step, np.zeros(len(points))])
+            out.append(np.stack(feats.rig.project_poses(T, p)))
+        return np.stack(out)
+
+    def sample(img: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        h, w = img.shape[:2]
+        u, v = uv[:, 0], uv[:, 1]
+        ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
+        iu = np.minimum(np.floor(np.where(ok, u, 0)).astype(int), w - 2)
+        iv = np.minimum(np.floor(np.where(ok, v, 0)).astype(int), h - 2)
+        fu, fv = (np.where(ok, u, 0) - iu)[:, None], (np.where(ok, v, 0) - iv)[:, None]
+        top = img[iv, iu] * (1 - fu) + img[iv, iu + 1] * fu
+        bottom = img[iv + 1, iu] * (1 - fu) + img[iv + 1, iu + 1] * fu
+        return top * (1 - fv) + bottom * fv, ok
+
+    def agree(d: np.ndarray) -> np.ndarray:
+        return np.exp(-0.5 * (d[:, 0] ** 2 * iv_l + (d[:, 1] ** 2 + d[:, 2] ** 2) * iv_c))
+
+    pix_in, pix_out = pixels(s.p_in), pixels(s.p_out)
+    out = np.zeros((len(shifts), 2, 3, cells))
+    for q, (sx, sy) in enumerate(shifts):
+        for cam in range(2):
+            img = feats.pyramids[cam][0].astype(np.float64)
+            o = offsets[cam]
+            slid_in = pix_in[0, cam] + (pix_in[1, cam] - pix_in[0, cam]) * sx + (
+                pix_in[2, cam] - pix_in[0, cam]) * sy
+            slid_out = pix_out[0, cam] + (pix_out[1, cam] - pix_out[0, cam]) * sx + (
+                pix_out[2, cam] - pix_out[0, cam]) * sy
+            x_in, ok_in = sample(img, slid_in)
+            x_out, ok_out = sample(img, slid_out)
+            a_out = np.where(ok_out, agree(x_out - s.f_out - o), 1.0)
+            expected = s.f_in + o
+            mixed = (t > 0.0) & (table >= 0) & ok_out[np.maximum(table, 0)]
+            if mixed.any():   # the model colour mixed with the slid band point's, linear
+                own = s.lin_in[mixed] * np.exp(to_logs @ o)     # lin_in: exp of f_in's logs
+                seen = np.exp(x_out[table[mixed]] @ to_logs.T)
+                expected[mixed] = np.log((1 - t) * own + t * seen) @ opponent.T
+            a_in = np.where(ok_in, agree(x_in - expected), 0.0)
+            pair = (table >= 0) & ok_in & ok_out[np.maximum(table, 0)]
+            both = np.where(pair, a_in * (1.0 - a_out[np.maximum(table, 0)]), 0.0)
+            out[q, cam, 0] = np.bincount(cell_in, a_in, cells)
+            out[q, cam, 1] = np.bincount(cell_out, a_out, cells)
+            out[q, cam, 2] = np.bincount(cell_in, both, cells)
+    return out
+
+
+@pytest.mark.parametrize(("garment", "condition"), [("No.1", "paper"), ("No.6", "gripper")])
+def test_slack_sums_match_a_numpy_reference(garment: str, condition: str) -> None:
+    """Every slide's, camera's and cell's sums of the score with patch slack, against the
+    same sums written out in numpy, 1 mm off the true pose (cells slide both ways)."""
+    from photomodel.fitness._edges import _sample_cells
+
+    model, rig, right, left, T_true, _ = _case(garment, condition)
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), 0)
+    T = T_true.copy()
+    T[:3, 3] += T_true[:3, 0] * 0.7 - T_true[:3, 1] * 0.4
+    fitness.evaluate_transforms(T[None])
+    offsets = np.ascontiguousarray(fitness.last_terms[0][:, 3:])
+    cell_in, cell_out, cells = _sample_cells(fitness.samples, ScoreSlack().cell_mm)
+    shifts = ScoreSlack().shifts_mm()
+    got = fitness.slack_sums(T, shifts, offsets, cell_in, cell_out, cells)
+    expected = _slid_sums_reference(fitness, T, shifts, offsets, cell_in, cell_out, cells)
+    assert fitness.edge_mix_fraction > 0.0
+    np.testing.assert_allclose(got, expected, rtol=0.0, atol=1e-8)

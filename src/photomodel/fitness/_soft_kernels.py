@@ -522,6 +522,25 @@ def _plane_affine(R, t, K, D, x, y):  # pragma: no cover - compiled
     return u, v, ux - u, vx - v, uy - u, vy - v
 
 
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _slide_samples(img, u0, v0, du_x, dv_x, du_y, dv_y, shifts, smp,
+                   inside):  # pragma: no cover - compiled
+    """``smp`` (3, S) = the bilinear samples of ``img`` at pixel (u0, v0) moved by each of
+    the ``shifts`` (S, 2) mm along the model's x and y (pixel steps ``du_x, dv_x`` and
+    ``du_y, dv_y`` a mm), by channel; ``inside`` (S,) 1.0 where inside the image, else 0.0
+    (and that slide's samples unchanged)."""
+    sample = np.empty(3)
+    for q in range(shifts.shape[0]):
+        u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
+        v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
+        if _bilinear(img, u, v, sample):
+            inside[q] = 1.0
+            for k in range(3):
+                smp[k, q] = sample[k]
+        else:
+            inside[q] = 0.0
+
+
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
 def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_out, img1,
                            img2, inv_var_l, inv_var_c, table_out, mix_t, lin_in, offsets,
@@ -553,63 +572,78 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
         o = offsets[cam]
         gain = np.empty(3)
         _light_gain(o, gain)
-        sample = np.empty(3)
-        expected = np.empty(3)
-        diff = np.empty(3)
         # A point's slides side by side (the inner ring reads its band point's 25 at once),
         # and the sums by cell: (cell, term, slide).
         band = np.empty((n_out, S, 3))
         band_a = np.empty((n_out, S))
         band_ok = np.empty((n_out, S), dtype=np.bool_)
         sums = np.zeros((cells, 3, S))
-        d2 = np.empty(S)
+        # A point's slides by channel (l, a, b rows) and whether each fell inside (1.0 or
+        # 0.0): the samples one slide at a time, everything after them as passes over the
+        # slides that vectorise.
+        smp = np.zeros((3, S))
+        inside = np.empty(S)
         a = np.empty(S)
         mix_work = np.empty((4, 3 * S))
         for j in range(n_out):
             u0, v0, du_x, dv_x, du_y, dv_y = _plane_affine(M, t, K, D, p_out[j, 0], p_out[j, 1])
+            _slide_samples(img, u0, v0, du_x, dv_x, du_y, dv_y, shifts, smp, inside)
             c = cell_out[j]
             for q in range(S):
-                u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
-                v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
-                ok = _bilinear(img, u, v, sample)
-                band_ok[j, q] = ok
+                band_ok[j, q] = inside[q] > 0.0
                 for k in range(3):
-                    band[j, q, k] = sample[k]
-                d2[q] = 0.5 * _distance2(sample[0] - f_out[j, 0], sample[1] - f_out[j, 1],
-                                         sample[2] - f_out[j, 2], o, inv_var_l,
-                                         inv_var_c) if ok else 0.0
-            for q in range(S):        # apart, so that it vectorises
-                a[q] = exp_neg(d2[q])
+                    band[j, q, k] = smp[k, q]
+            f0 = f_out[j, 0] + o[0]
+            f1 = f_out[j, 1] + o[1]
+            f2 = f_out[j, 2] + o[2]
             for q in range(S):
-                band_a[j, q] = a[q] if band_ok[j, q] else 1.0
-                sums[c, 1, q] += band_a[j, q]
-        inside = np.empty(S, dtype=np.bool_)
+                e0 = smp[0, q] - f0
+                e1 = smp[1, q] - f1
+                e2 = smp[2, q] - f2
+                y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
+                a[q] = exp_neg(y) if inside[q] > 0.0 else 1.0
+            for q in range(S):
+                band_a[j, q] = a[q]
+                sums[c, 1, q] += a[q]
+        mixed = np.empty(S)
         for j in range(n_in):
             u0, v0, du_x, dv_x, du_y, dv_y = _plane_affine(M, t, K, D, p_in[j, 0], p_in[j, 1])
+            _slide_samples(img, u0, v0, du_x, dv_x, du_y, dv_y, shifts, smp, inside)
             c = cell_in[j]
             mix = table_out[j]
             pair = pair_out[j]
+            f0 = f_in[j, 0] + o[0]
+            f1 = f_in[j, 1] + o[1]
+            f2 = f_in[j, 2] + o[2]
             if mix_t > 0.0 and mix >= 0:
                 slide_mixtures(lin_in[j], gain, band[mix], band_ok[mix], mix_t, mix_work)
+                for q in range(S):
+                    mixed[q] = 1.0 if band_ok[mix, q] else 0.0
+                for q in range(S):   # the edge mixture's features where its table is seen
+                    m0 = (_OPPONENT[0, 0] * mix_work[3, q] + _OPPONENT[0, 1] * mix_work[3, S + q]
+                          + _OPPONENT[0, 2] * mix_work[3, 2 * S + q])
+                    m1 = (_OPPONENT[1, 0] * mix_work[3, q] + _OPPONENT[1, 1] * mix_work[3, S + q]
+                          + _OPPONENT[1, 2] * mix_work[3, 2 * S + q])
+                    m2 = (_OPPONENT[2, 0] * mix_work[3, q] + _OPPONENT[2, 1] * mix_work[3, S + q]
+                          + _OPPONENT[2, 2] * mix_work[3, 2 * S + q])
+                    mx = mixed[q] > 0.0
+                    e0 = smp[0, q] - (m0 if mx else f0)
+                    e1 = smp[1, q] - (m1 if mx else f1)
+                    e2 = smp[2, q] - (m2 if mx else f2)
+                    y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
+                    a[q] = exp_neg(y) * inside[q]
+            else:
+                for q in range(S):
+                    e0 = smp[0, q] - f0
+                    e1 = smp[1, q] - f1
+                    e2 = smp[2, q] - f2
+                    y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
+                    a[q] = exp_neg(y) * inside[q]
             for q in range(S):
-                u = u0 + du_x * shifts[q, 0] + du_y * shifts[q, 1]
-                v = v0 + dv_x * shifts[q, 0] + dv_y * shifts[q, 1]
-                inside[q] = _bilinear(img, u, v, sample)
-                if inside[q] and mix_t > 0.0 and mix >= 0 and band_ok[mix, q]:
-                    mixed_features(mix_work, q, expected)
-                    for k in range(3):   # so that diff - o = sample - expected
-                        diff[k] = sample[k] - expected[k] + o[k]
-                else:
-                    for k in range(3):
-                        diff[k] = sample[k] - f_in[j, k]
-                d2[q] = 0.5 * _distance2(diff[0], diff[1], diff[2], o, inv_var_l,
-                                         inv_var_c) if inside[q] else 0.0
-            for q in range(S):        # apart, so that it vectorises
-                a[q] = exp_neg(d2[q])
-            for q in range(S):
-                if inside[q]:
-                    sums[c, 0, q] += a[q]
-                    if pair >= 0 and band_ok[pair, q]:
+                sums[c, 0, q] += a[q]
+            if pair >= 0:
+                for q in range(S):
+                    if band_ok[pair, q]:
                         sums[c, 2, q] += a[q] * (1.0 - band_a[pair, q])
         for q in range(S):
             for term in range(3):
