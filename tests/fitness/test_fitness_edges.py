@@ -7,6 +7,7 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
+from fitness_helpers import bilinear_samples
 
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import (
@@ -133,17 +134,6 @@ def _slid_sums_reference(fitness: SoftFitness, T: np.ndarray, shifts: np.ndarray
             out.append(np.stack(feats.rig.project_poses(T, p)))
         return np.stack(out)
 
-    def sample(img: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        h, w = img.shape[:2]
-        u, v = uv[:, 0], uv[:, 1]
-        ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
-        iu = np.minimum(np.floor(np.where(ok, u, 0)).astype(int), w - 2)
-        iv = np.minimum(np.floor(np.where(ok, v, 0)).astype(int), h - 2)
-        fu, fv = (np.where(ok, u, 0) - iu)[:, None], (np.where(ok, v, 0) - iv)[:, None]
-        top = img[iv, iu] * (1 - fu) + img[iv, iu + 1] * fu
-        bottom = img[iv + 1, iu] * (1 - fu) + img[iv + 1, iu + 1] * fu
-        return top * (1 - fv) + bottom * fv, ok
-
     def agree(d: np.ndarray) -> np.ndarray:
         return np.exp(-0.5 * (d[:, 0] ** 2 * iv_l + (d[:, 1] ** 2 + d[:, 2] ** 2) * iv_c))
 
@@ -157,8 +147,8 @@ def _slid_sums_reference(fitness: SoftFitness, T: np.ndarray, shifts: np.ndarray
                 pix_in[2, cam] - pix_in[0, cam]) * sy
             slid_out = pix_out[0, cam] + (pix_out[1, cam] - pix_out[0, cam]) * sx + (
                 pix_out[2, cam] - pix_out[0, cam]) * sy
-            x_in, ok_in = sample(img, slid_in)
-            x_out, ok_out = sample(img, slid_out)
+            x_in, ok_in = bilinear_samples(img, slid_in)
+            x_out, ok_out = bilinear_samples(img, slid_out)
             a_out = np.where(ok_out, agree(x_out - s.f_out - o), 1.0)
             expected = s.f_in + o
             mixed = (t > 0.0) & (table >= 0) & ok_out[np.maximum(table, 0)]

@@ -6,6 +6,7 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
+from fitness_helpers import bilinear_samples
 from scipy.spatial.transform import Rotation
 
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
@@ -222,17 +223,6 @@ def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
     uv_out = feats.rig.project_poses(T, s.p_out)
     terms = np.zeros((2, 6))
 
-    def sample(img: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        h, w = img.shape[:2]
-        u, v = uv[:, 0] * scale, uv[:, 1] * scale
-        ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
-        iu = np.minimum(np.floor(np.where(ok, u, 0)).astype(int), w - 2)
-        iv = np.minimum(np.floor(np.where(ok, v, 0)).astype(int), h - 2)
-        fu, fv = (np.where(ok, u, 0) - iu)[:, None], (np.where(ok, v, 0) - iv)[:, None]
-        top = img[iv, iu] * (1 - fu) + img[iv, iu + 1] * fu
-        bottom = img[iv + 1, iu] * (1 - fu) + img[iv + 1, iu + 1] * fu
-        return top * (1 - fv) + bottom * fv, ok
-
     def agree(d: np.ndarray, o: np.ndarray) -> np.ndarray:
         e = d - o
         return np.exp(-0.5 * (e[:, 0] ** 2 * iv_l + (e[:, 1] ** 2 + e[:, 2] ** 2) * iv_c))
@@ -244,7 +234,7 @@ def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
 
     for cam in range(2):
         img = feats.pyramids[cam][fitness.level].astype(np.float64)
-        x_in, ok = sample(img, uv_in[cam])
+        x_in, ok = bilinear_samples(img, uv_in[cam] * scale)
         d = (x_in - s.f_in)[ok]
         ridge = 2.0 * wb * len(s.p_in) / iv_c
         ends = []
@@ -256,7 +246,7 @@ def _reference_terms(fitness: SoftFitness, T: np.ndarray) -> np.ndarray:
                               a @ d[:, 2] / (a.sum() + ridge)])
             ends.append((agree(d, o).sum() / len(s.p_in) - wb * (o[1] ** 2 + o[2] ** 2), o))
         o = max(ends, key=lambda e: e[0])[1]
-        x_out, ok_out = sample(img, uv_out[cam])
+        x_out, ok_out = bilinear_samples(img, uv_out[cam] * scale)
         t = fitness.edge_mix_fraction
         if t > 0.0:  # inner-ring points expect their colour mixed with the band's table colour
             k = s.table_out

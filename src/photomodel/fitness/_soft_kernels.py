@@ -597,11 +597,8 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
             f1 = f_out[j, 1] + o[1]
             f2 = f_out[j, 2] + o[2]
             for q in range(S):
-                e0 = smp[0, q] - f0
-                e1 = smp[1, q] - f1
-                e2 = smp[2, q] - f2
-                y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
-                a[q] = exp_neg(y) if inside[q] > 0.0 else 1.0
+                a[q] = _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1, f2, inv_var_l,
+                                         inv_var_c) if inside[q] > 0.0 else 1.0
             for q in range(S):
                 band_a[j, q] = a[q]
                 sums[c, 1, q] += a[q]
@@ -627,18 +624,13 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
                     m2 = (_OPPONENT[2, 0] * mix_work[3, q] + _OPPONENT[2, 1] * mix_work[3, S + q]
                           + _OPPONENT[2, 2] * mix_work[3, 2 * S + q])
                     mx = mixed[q] > 0.0
-                    e0 = smp[0, q] - (m0 if mx else f0)
-                    e1 = smp[1, q] - (m1 if mx else f1)
-                    e2 = smp[2, q] - (m2 if mx else f2)
-                    y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
-                    a[q] = exp_neg(y) * inside[q]
+                    a[q] = inside[q] * _offset_agreement(
+                        smp[0, q], smp[1, q], smp[2, q], m0 if mx else f0, m1 if mx else f1,
+                        m2 if mx else f2, inv_var_l, inv_var_c)
             else:
                 for q in range(S):
-                    e0 = smp[0, q] - f0
-                    e1 = smp[1, q] - f1
-                    e2 = smp[2, q] - f2
-                    y = 0.5 * (e0 * e0 * inv_var_l + (e1 * e1 + e2 * e2) * inv_var_c)
-                    a[q] = exp_neg(y) * inside[q]
+                    a[q] = inside[q] * _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1,
+                                                         f2, inv_var_l, inv_var_c)
             for q in range(S):
                 sums[c, 0, q] += a[q]
             if pair >= 0:
