@@ -157,10 +157,17 @@ def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover -
 def mixed_features(work, j, out):  # pragma: no cover - compiled
     """``out`` = the features (l, a, b) of ring point ``j``'s edge mixture in ``work``
     (:func:`ring_mixtures`)."""
-    n = work.shape[1] // 3
     for c in range(3):
-        out[c] = (_OPPONENT[c, 0] * work[3, j] + _OPPONENT[c, 1] * work[3, n + j]
-                  + _OPPONENT[c, 2] * work[3, 2 * n + j])
+        out[c] = _mixed_feature(work, j, c)
+
+
+@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+def _mixed_feature(work, j, c):  # pragma: no cover - compiled
+    """Feature ``c`` (0: l, 1: a, 2: b) of :func:`mixed_features`, as a scalar (a loop over
+    ring points or slides of it vectorises)."""
+    n = work.shape[1] // 3
+    return (_OPPONENT[c, 0] * work[3, j] + _OPPONENT[c, 1] * work[3, n + j]
+            + _OPPONENT[c, 2] * work[3, 2 * n + j])
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
@@ -617,12 +624,9 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, p_in, f_in, p_out, f_
                 for q in range(S):
                     mixed[q] = 1.0 if band_ok[mix, q] else 0.0
                 for q in range(S):   # the edge mixture's features where its table is seen
-                    m0 = (_OPPONENT[0, 0] * mix_work[3, q] + _OPPONENT[0, 1] * mix_work[3, S + q]
-                          + _OPPONENT[0, 2] * mix_work[3, 2 * S + q])
-                    m1 = (_OPPONENT[1, 0] * mix_work[3, q] + _OPPONENT[1, 1] * mix_work[3, S + q]
-                          + _OPPONENT[1, 2] * mix_work[3, 2 * S + q])
-                    m2 = (_OPPONENT[2, 0] * mix_work[3, q] + _OPPONENT[2, 1] * mix_work[3, S + q]
-                          + _OPPONENT[2, 2] * mix_work[3, 2 * S + q])
+                    m0 = _mixed_feature(mix_work, q, 0)
+                    m1 = _mixed_feature(mix_work, q, 1)
+                    m2 = _mixed_feature(mix_work, q, 2)
                     mx = mixed[q] > 0.0
                     a[q] = inside[q] * _offset_agreement(
                         smp[0, q], smp[1, q], smp[2, q], m0 if mx else f0, m1 if mx else f1,
