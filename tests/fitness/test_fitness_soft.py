@@ -449,8 +449,9 @@ def test_projection_jacobian_matches_differences_with_every_distortion_term() ->
     t = np.array([25.0, -40.0, 680.0])
     points = np.random.default_rng(3).uniform(-120.0, 120.0, (7, 3))
     pixels, rows = np.empty((2, 7)), np.empty((8, 7))
-    plane_pixels(R, t, K, D, points, pixels)
-    plane_pixel_jacobians(R, t, K, D, points, rows)
+    xy = np.ascontiguousarray(points[:, :2].T)    # the kernels take x and y by row
+    plane_pixels(R, t, K, D, xy, pixels)
+    plane_pixel_jacobians(R, t, K, D, xy, rows)
     for j, (x, y, _) in enumerate(points):
         X = R[:, 0] * x + R[:, 1] * y + t
         np.testing.assert_allclose(pixels[:, j], _project(*X, K, D), rtol=1e-12)

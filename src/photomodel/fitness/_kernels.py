@@ -167,22 +167,24 @@ def plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def plane_pixels(R, t, K, D, points, out):  # pragma: no cover - compiled
-    """``out`` (2, N) = the pixels (u, v) of the model-plane points ``points`` (N, >= 2)
-    at pose ``(R, t)`` through ``K``, ``D`` (:func:`plane_pixel`; -1e9 behind the camera).
-    One loop that vectorises, before the points' bilinear samples: a fifth of the ``soft``
-    fitness's time went to projecting one point at a time."""
-    for j in range(points.shape[0]):
-        out[0, j], out[1, j] = plane_pixel(R, t, K, D, points[j, 0], points[j, 1])
+def plane_pixels(R, t, K, D, xy, out):  # pragma: no cover - compiled
+    """``out`` (2, N) = the pixels (u, v) of the model-plane points ``xy`` (2, N: their x
+    and y by row) at pose ``(R, t)`` through ``K``, ``D`` (:func:`plane_pixel`; -1e9 behind
+    the camera). One loop that vectorises, before the points' bilinear samples: a fifth of
+    the ``soft`` fitness's time went to projecting one point at a time. The coordinates by
+    row let it load four points' x (and y) at once; from points by row (N, 3) it gathered
+    them, and took 3.5x as long (2338 points: 36 us against 10 us)."""
+    for j in range(xy.shape[1]):
+        out[0, j], out[1, j] = plane_pixel(R, t, K, D, xy[0, j], xy[1, j])
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def plane_pixel_jacobians(R, t, K, D, points, out):  # pragma: no cover - compiled
-    """``out`` (8, N) = :func:`_projection_jacobian`'s rows for the model-plane points
-    ``points`` (N, >= 2) at pose ``(R, t)``: the pixel and its derivative along the camera
+def plane_pixel_jacobians(R, t, K, D, xy, out):  # pragma: no cover - compiled
+    """``out`` (8, N) = :func:`_projection_jacobian`'s rows for the model-plane points ``xy``
+    (2, N: x and y by row) at pose ``(R, t)``: the pixel and its derivative along the camera
     point, in one loop that vectorises (as :func:`plane_pixels`)."""
-    for j in range(points.shape[0]):
-        X, Y, Z = _plane_point(R, t, points[j, 0], points[j, 1])
+    for j in range(xy.shape[1]):
+        X, Y, Z = _plane_point(R, t, xy[0, j], xy[1, j])
         (out[0, j], out[1, j], out[2, j], out[3, j], out[4, j], out[5, j], out[6, j],
          out[7, j]) = _projection_jacobian(X, Y, Z, K, D)
 

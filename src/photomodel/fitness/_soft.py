@@ -169,12 +169,20 @@ def _f64(a: NDArray[np.floating] | NDArray[np.integer]) -> NDArray[np.float64]:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def _xy_rows(points: NDArray[np.floating]) -> NDArray[np.float64]:
+    """The x and y (2, N) of model-plane points (N, >= 2), by row, C-contiguous float64."""
+    return np.ascontiguousarray(np.asarray(points)[:, :2].T, dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class _SampleArrays:
-    """What the kernels take of one ``ModelSamples``, in their types: the points and colours
-    (float64), each inner point's band point of the edge mixture (int64, -1: none) and the
-    table of a fitness without it (all -1), the inner colours linear, the signed residual
-    weights (``SoftFitness.residual_weights``) and each camera's half of them."""
+    """What the kernels take of one ``ModelSamples``, in their types: the inner points' x and
+    y by row (2, N_in), their colours (N_in, 3), the band's points (2, N_out) and colours
+    (float64; the points by row so that the projections load them four at a time,
+    :func:`~photomodel.fitness._kernels.plane_pixels`), each inner point's band point of
+    the edge mixture (int64, -1: none) and the table of a fitness without it (all -1), the
+    inner colours linear, the signed residual weights (``SoftFitness.residual_weights``)
+    and each camera's half of them."""
 
     points: tuple[NDArray[np.float64], ...]
     table_out: NDArray[np.int64]
@@ -182,6 +190,16 @@ class _SampleArrays:
     lin_in: NDArray[np.float64]
     weights: NDArray[np.float64]
     half_weights: NDArray[np.float64]
+
+    @property
+    def xy_in(self) -> NDArray[np.float64]:
+        """The inner points' x and y by row (2, N_in)."""
+        return self.points[0]
+
+    @property
+    def xy_out(self) -> NDArray[np.float64]:
+        """The band's points' x and y by row (2, N_out)."""
+        return self.points[2]
 
 
 _SAMPLE_ARRAYS: dict[int, _SampleArrays] = {}
@@ -199,7 +217,8 @@ def _sample_arrays(samples: ModelSamples) -> _SampleArrays:
         weights = np.concatenate([np.full(n_in, 1.0 / n_in),
                                   np.full(n_out, -1.0 / max(n_out, 1))])
         return _SampleArrays(
-            tuple(_f64(a) for a in (samples.p_in, samples.f_in, samples.p_out, samples.f_out)),
+            (_xy_rows(samples.p_in), _f64(samples.f_in), _xy_rows(samples.p_out),
+             _f64(samples.f_out)),
             np.ascontiguousarray(table, dtype=np.int64), none, _f64(samples.lin_in),
             weights, _f64(weights / 2.0))
 
@@ -461,8 +480,10 @@ class SoftFitness:
         pairs = (s.table_out if s.table_out is not None
                  else np.full(len(s.p_in), -1, dtype=np.intp))
         inv_var_l, inv_var_c, _ = self._args
+        arrays = _sample_arrays(s)
         soft_slack_sums_kernel(Ms, ts, self.K1, rig.cam1.distortion12, self.K2,
-                               rig.cam2.distortion12, shifts, s.p_in, s.f_in, s.p_out, s.f_out,
+                               rig.cam2.distortion12, shifts, arrays.xy_in, s.f_in,
+                               arrays.xy_out, s.f_out,
                                self.features.pyramids[0][self.level],
                                self.features.pyramids[1][self.level], inv_var_l, inv_var_c,
                                self._table_out, self.edge_mix_fraction,

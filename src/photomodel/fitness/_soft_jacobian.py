@@ -184,7 +184,7 @@ def _dot_rows(work, r1, r2, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
-def _plain_sums(j0, j1, proj, img, p_in, f_in, o, W, weights, n_in, work, g9, kron, cross9,
+def _plain_sums(j0, j1, proj, img, xy_in, f_in, o, W, weights, n_in, work, g9, kron, cross9,
                 hess, slope_sum):  # pragma: no cover - compiled
     """The sums of :func:`_camera_normal_equations`' point loop over inner points ``j0`` to
     ``j1`` whose residual is the plain difference (no edge mixture): ``g9``, ``kron``,
@@ -210,8 +210,8 @@ def _plain_sums(j0, j1, proj, img, p_in, f_in, o, W, weights, n_in, work, g9, kr
                 work[(_E + c) * B + m] = sample[c] - f_in[j, c] - o[c] if inside else 0.0
                 work[(_DU + c) * B + m] = du[c] if inside else 0.0
                 work[(_DV + c) * B + m] = dv[c] if inside else 0.0
-            work[_Q * B + m] = p_in[j, 0]
-            work[(_Q + 1) * B + m] = p_in[j, 1]
+            work[_Q * B + m] = xy_in[0, j]
+            work[(_Q + 1) * B + m] = xy_in[1, j]
             work[(_Q + 2) * B + m] = 1.0
         for m in range(n):
             j = b0 + m
@@ -322,10 +322,11 @@ def _plain_sums(j0, j1, proj, img, p_in, f_in, o, W, weights, n_in, work, g9, kr
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
-def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scale, table_out,
-                             mix_t, lin_in, o, weights, wb_weight, band, band_slope, band_jac,
-                             band_ok, proj, mix_work, plain_work, gradient, metric, hess_o,
-                             cross_o, slope_o):  # pragma: no cover - compiled
+def _camera_normal_equations(M, t, dX, K, D, xy_in, f_in, xy_out, f_out, img, scale,
+                             table_out, mix_t, lin_in, o, weights, wb_weight, band,
+                             band_slope, band_jac, band_ok, proj, mix_work, plain_work,
+                             gradient, metric, hess_o, cross_o,
+                             slope_o):  # pragma: no cover - compiled
     """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
     the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
     :func:`soft_normal_kernel`), summed in the model point's 9-dimensional space (the module
@@ -336,8 +337,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     ``mix_work`` (4, 3 ring_size(table_out)) the edge mixtures' (:func:`ring_mixtures`) and
     ``plain_work`` (_ROWS * _BLOCK,) :func:`_plain_sums`' (the points after the ring, or all
     of them without the mixture)."""
-    n_in = p_in.shape[0]
-    n_out = p_out.shape[0]
+    n_in = xy_in.shape[1]
+    n_out = xy_out.shape[1]
     W = np.empty(3)
     e = np.empty(3)
     we = np.empty(3)
@@ -367,7 +368,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     hess = np.zeros((3, 3))
     slope_sum = np.zeros(3)
     _light_gain(o, gain)
-    plane_pixel_jacobians(M, t, K, D, p_out, proj)
+    plane_pixel_jacobians(M, t, K, D, xy_out, proj)
     for j in range(n_out):    # the band first: the inner ring's mixture needs it
         ok = _sample_slope(proj, j, img, sample, du, dv, jac)
         band_ok[j] = ok
@@ -382,7 +383,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
             band_jac[j, 0, i] = jac[0, i]
             band_jac[j, 1, i] = jac[1, i]
         a = _agreement(r)
-        _add_gradient(g9, r, scale, du, dv, jac, p_out[j, 0], p_out[j, 1],
+        _add_gradient(g9, r, scale, du, dv, jac, xy_out[0, j], xy_out[1, j],
                       a * weights[n_in + j], a3)
         for c in range(3):
             slope_sum[c] -= a * scale[c] * r[c] / n_out
@@ -390,12 +391,12 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
     if mix_t > 0.0:
         ring_mixtures(lin_in, gain, table_out, band, band_ok, mix_t, mix_work)
         ring = mix_work.shape[1] // 3
-    plane_pixel_jacobians(M, t, K, D, p_in, proj)
-    _plain_sums(ring, n_in, proj, img, p_in, f_in, o, W, weights, n_in, plain_work, g9, kron,
+    plane_pixel_jacobians(M, t, K, D, xy_in, proj)
+    _plain_sums(ring, n_in, proj, img, xy_in, f_in, o, W, weights, n_in, plain_work, g9, kron,
                 cross9, hess, slope_sum)
     for j in range(ring):
-        x = p_in[j, 0]
-        y = p_in[j, 1]
+        x = xy_in[0, j]
+        y = xy_in[1, j]
         if not _sample_slope(proj, j, img, sample, du, dv, jac):
             continue
         # The offsets maximise the mean agreement of the plain differences (less the chroma
@@ -433,8 +434,8 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
                     slope_sum[m] += (a / n_in * scale[c] * r[c]
                                      * ((1.0 if c == m else 0.0) - slope[c, m]))
             w = a * weights[j]
-            xb = p_out[k, 0]
-            yb = p_out[k, 1]
+            xb = xy_out[0, k]
+            yb = xy_out[1, k]
             # row c of J in z-space: scale_c [(du_c jac0 + dv_c jac1) (x) q
             #   - (sum_m slope[c, m] band_slope[k, m, :]) . band_jac (x) q_b]
             for c in range(3):
@@ -504,7 +505,7 @@ def _camera_normal_equations(M, t, dX, K, D, p_in, f_in, p_out, f_out, img, scal
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2,
+def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2,
                        scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
                        out_gradient, out_metric, out_hess_o, out_cross_o,
                        out_slope_o):  # pragma: no cover - compiled
@@ -521,29 +522,30 @@ def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, im
     ``Ms`` (2, 3, 3) and ``ts`` (2, 3) map model points into each camera (``Ms[c][:, :2]``
     used), ``dXs`` (2, G, 3, 3) the camera point's derivative along each gene (coefficients
     of the model point's x, y and 1); ``offsets`` (2, 3) the held light offsets; ``weights``
-    (N_in + N_out,) the signed weights of :meth:`SoftFitness.residual_weights`; ``w_j`` a
+    (N_in + N_out,) the signed weights of :meth:`SoftFitness.residual_weights`; ``xy_in``
+    (2, N_in) and ``xy_out`` (2, N_out) the model points' x and y by row; ``w_j`` a
     sample's weight times its agreement ``exp(-|r_j|^2 / 2)``. The two cameras run side by
     side; each sums its samples in a fixed order (the same on any thread count).
     """
-    n_out = p_out.shape[0]
+    n_out = xy_out.shape[1]
     scale = np.array([scale_l, scale_c, scale_c])
     for cam in prange(2):
         band = np.empty((n_out, 3))
         band_slope = np.empty((n_out, 3, 2))
         band_jac = np.empty((n_out, 2, 3))
         band_ok = np.empty(n_out, dtype=np.bool_)
-        proj = np.empty((8, max(p_in.shape[0], n_out)))
+        proj = np.empty((8, max(xy_in.shape[1], n_out)))
         mix_work = np.empty((4, 3 * ring_size(table_out)))
         plain_work = np.empty(_ROWS * _BLOCK)
         if cam == 0:
-            _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, p_in, f_in, p_out, f_out,
+            _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, xy_in, f_in, xy_out, f_out,
                                      img1, scale, table_out, mix_t, lin_in, offsets[0],
                                      weights, wb_weight, band, band_slope, band_jac,
                                      band_ok, proj, mix_work, plain_work, out_gradient[0],
                                      out_metric[0],
                                      out_hess_o[0], out_cross_o[0], out_slope_o[0])
         else:
-            _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, p_in, f_in, p_out, f_out,
+            _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, xy_in, f_in, xy_out, f_out,
                                      img2, scale, table_out, mix_t, lin_in, offsets[1],
                                      weights, wb_weight, band, band_slope, band_jac,
                                      band_ok, proj, mix_work, plain_work, out_gradient[1],
@@ -611,7 +613,7 @@ def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cov
     when ``with_offsets``) and the metric (G, G). ``args`` holds :func:`soft_normal_kernel`'s
     fixed arguments (``SoftFitness.normal_args``). Called from Python and from
     Gauss-Newton's numba loop alike."""
-    (R, T, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2, scale_l, scale_c, table_out,
+    (R, T, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2, scale_l, scale_c, table_out,
      mix_t, lin_in, weights, wb_weight) = args
     Ms, ts, dXs = camera_frames(A, dA, R, T)
     G = dA.shape[0]
@@ -620,7 +622,7 @@ def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cov
     hess_o = np.zeros((2, 3, 3))
     cross_o = np.zeros((2, 3, G))
     slope_o = np.zeros((2, 3))
-    soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1, img2,
+    soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2,
                        scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
                        gradient, metric, hess_o, cross_o, slope_o)
     return (full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets),
