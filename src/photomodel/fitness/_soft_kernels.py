@@ -177,8 +177,10 @@ def _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok,
     inner points', ``valid`` (N_in,) whether each fell inside the image (1.0 or 0.0),
     ``band`` (N_out, 3) and ``band_ok`` (N_out,) the band's; ``pix`` (2, max(N_in, N_out))
     is work space (the points' pixels). What :func:`_camera_terms` compares with the
-    model's colours, which several colourings of the same points share."""
-    sample = np.empty(3)
+    model's colours, which several colourings of the same points share. A band point
+    outside the image keeps the last sample (finite: the comparisons pass over every
+    point)."""
+    sample = np.zeros(3)
     plane_pixels(R, t, K, D, xy_out, pix)
     for j in range(xy_out.shape[1]):
         band_ok[j] = _bilinear(img, pix[0, j], pix[1, j], sample)
@@ -282,16 +284,28 @@ def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb
         gain = np.empty(3)
         _light_gain(o, gain)
         ring_mixtures(lin_in, gain, table_out, band, band_ok, mix_t, mix_work)
-        for j in range(mix_work.shape[1] // 3):
+        ring = mix_work.shape[1] // 3
+        o0, o1, o2 = o[0], o[1], o[2]
+        # A ring point whose band point is seen trades its plain agreement for the mixture's:
+        # one pass without branches (both agreements of every ring point, the trade kept
+        # where it applies), which vectorises.
+        for j in range(ring):
             k = table_out[j]
-            if valid[j] > 0.0 and k >= 0 and band_ok[k]:
-                mixed_features(mix_work, j, expected)
-                s_in -= exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
-                                                 inv_var_l, inv_var_c))
-                for c in range(3):   # so that diff - o = sample - expected
-                    diff[c, j] = buf[j, c] - expected[c] + o[c]
-                s_in += exp_neg(0.5 * _distance2(diff[0, j], diff[1, j], diff[2, j], o,
-                                                 inv_var_l, inv_var_c))
+            mixed = (valid[j] > 0.0) & (k >= 0) & band_ok[max(k, 0)]
+            plain = _offset_agreement(diff[0, j], diff[1, j], diff[2, j], o0, o1, o2,
+                                      inv_var_l, inv_var_c)
+            mix = _offset_agreement(buf[j, 0] - _mixed_feature(mix_work, j, 0) + o0,
+                                    buf[j, 1] - _mixed_feature(mix_work, j, 1) + o1,
+                                    buf[j, 2] - _mixed_feature(mix_work, j, 2) + o2,
+                                    o0, o1, o2, inv_var_l, inv_var_c)
+            s_in += mix - plain if mixed else 0.0
+        if use_palette:    # the palette compares the mixture's differences too
+            for j in range(ring):
+                k = table_out[j]
+                if valid[j] > 0.0 and k >= 0 and band_ok[k]:
+                    mixed_features(mix_work, j, expected)
+                    for c in range(3):   # so that diff - o = sample - expected
+                        diff[c, j] = buf[j, c] - expected[c] + o[c]
     if use_palette:
         s_in = 0.0
         for j in range(n_in):
@@ -301,15 +315,21 @@ def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb
                 s_in += max(a, palette_weight * _best_agreement(buf[j], palette, o, inv_var_l,
                                                                 inv_var_c))
     s_out = 0.0
-    for j in range(f_out.shape[0]):
-        if band_ok[j]:
-            a = _agreement(band[j], f_out[j], o, inv_var_l, inv_var_c)
-            if use_palette:
-                a = max(a, palette_weight * _best_agreement(band[j], palette, o, inv_var_l,
-                                                            inv_var_c))
-            s_out += a
-        else:  # no contrast seen where the band leaves the image: as bad as garment there
-            s_out += 1.0
+    if use_palette:
+        for j in range(f_out.shape[0]):
+            if band_ok[j]:
+                a = _agreement(band[j], f_out[j], o, inv_var_l, inv_var_c)
+                s_out += max(a, palette_weight * _best_agreement(band[j], palette, o,
+                                                                 inv_var_l, inv_var_c))
+            else:
+                s_out += 1.0
+    else:    # one pass without branches, which vectorises
+        o0, o1, o2 = o[0], o[1], o[2]
+        for j in range(f_out.shape[0]):
+            a = _offset_agreement(band[j, 0] - f_out[j, 0], band[j, 1] - f_out[j, 1],
+                                  band[j, 2] - f_out[j, 2], o0, o1, o2, inv_var_l, inv_var_c)
+            # no contrast seen where the band leaves the image: as bad as garment there
+            s_out += a if band_ok[j] else 1.0
     s_in /= n_in
     if f_out.shape[0] > 0:
         s_out /= f_out.shape[0]
