@@ -177,9 +177,9 @@ def _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok,
     inner points', ``valid`` (N_in,) whether each fell inside the image (1.0 or 0.0),
     ``band`` (N_out, 3) and ``band_ok`` (N_out,) the band's; ``pix`` (2, max(N_in, N_out))
     is work space (the points' pixels). What :func:`_camera_terms` compares with the
-    model's colours, which several colourings of the same points share. A band point
-    outside the image keeps the last sample (finite: the comparisons pass over every
-    point)."""
+    model's colours, which several colourings of the same points share. A point outside
+    the image keeps the last sample (finite: the comparisons pass over every point and
+    weigh it by ``valid`` or ``band_ok``)."""
     sample = np.zeros(3)
     plane_pixels(R, t, K, D, xy_out, pix)
     for j in range(xy_out.shape[1]):
@@ -188,11 +188,9 @@ def _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok,
             band[j, c] = sample[c]
     plane_pixels(R, t, K, D, xy_in, pix)
     for j in range(xy_in.shape[1]):
-        ok = _bilinear(img, pix[0, j], pix[1, j], sample)
-        valid[j] = 1.0 if ok else 0.0
-        if ok:
-            for c in range(3):
-                buf[j, c] = sample[c]
+        valid[j] = 1.0 if _bilinear(img, pix[0, j], pix[1, j], sample) else 0.0
+        for c in range(3):
+            buf[j, c] = sample[c]
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
@@ -216,17 +214,27 @@ def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb
     use_palette = palette.shape[0] > 0
     n_in = f_in.shape[0]
     o = np.zeros(3)
-    n_valid = 0
-    for j in range(n_in):
-        if valid[j] > 0.0:
-            n_valid += 1
-            for c in range(3):
-                diff[c, j] = buf[j, c] - f_in[j, c]
-                o[c] += diff[c, j]
-        else:     # zero differences: the passes below weigh them by valid = 0
-            for c in range(3):
-                diff[c, j] = 0.0
-    if n_valid == 0:
+    n_valid = 0.0
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for j in range(n_in):    # without branches, so that it vectorises
+        inside = valid[j] > 0.0
+        # zero differences outside the image: the passes below weigh them by valid = 0
+        d0 = buf[j, 0] - f_in[j, 0] if inside else 0.0
+        d1 = buf[j, 1] - f_in[j, 1] if inside else 0.0
+        d2 = buf[j, 2] - f_in[j, 2] if inside else 0.0
+        diff[0, j] = d0
+        diff[1, j] = d1
+        diff[2, j] = d2
+        s0 += d0
+        s1 += d1
+        s2 += d2
+        n_valid += valid[j]
+    o[0] = s0
+    o[1] = s1
+    o[2] = s2
+    if n_valid == 0.0:
         for k in range(6):
             out[k] = 0.0
         return
