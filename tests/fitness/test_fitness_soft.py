@@ -279,6 +279,26 @@ def test_kernel_matches_a_numpy_reference(level: int, palette_weight: float) -> 
         assert f[k] == pytest.approx(expected[:, 0].mean(), abs=1e-6)
 
 
+@pytest.mark.parametrize("level", [0, 2])
+def test_kernel_matches_the_reference_with_the_garment_partly_out_of_the_image(level: int) -> None:
+    """Points outside the image are weighed out, whatever their buffers hold: the kernel's
+    passes run over every point without branches (the band counts 1 there)."""
+    model, rig, right, left, T_true, _ = _case("No.5", "gripper")
+    fitness = SoftFitness(model, StereoFeatures(rig, right, left), level)
+    poses = np.repeat(T_true[None], 3, axis=0)
+    poses[1, :3, 3] += [400.0, 0.0, 0.0]      # part of the garment past the right edge
+    poses[2, :3, 3] += [0.0, -230.0, 10.0]    # past the top
+    f = fitness.evaluate_transforms(poses)
+    uv = rig.project_poses(poses[1], fitness.samples.p_in)[0] * 0.5**level
+    width = fitness.features.pyramids[0][level].shape[1]
+    outside = np.mean(uv[:, 0] > width - 1)
+    assert 0.2 < outside < 0.8, outside
+    for k in range(len(poses)):
+        expected = _reference_terms(fitness, poses[k])
+        np.testing.assert_allclose(fitness.last_terms[k], expected, atol=1e-6)
+        assert f[k] == pytest.approx(expected[:, 0].mean(), abs=1e-6)
+
+
 def _edge_mixture(model_lin: np.ndarray, gain: np.ndarray, table: np.ndarray, t: float,
                   out: np.ndarray) -> None:
     """One inner point's edge mixture with one table colour, through the kernels' passes."""
