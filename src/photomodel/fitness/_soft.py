@@ -477,10 +477,8 @@ class SoftFitness:
         Ms, ts, _ = camera_frames(A, np.zeros((0, 4, 4)), rig.R, rig.T)
         shifts = np.ascontiguousarray(np.asarray(shifts_mm, dtype=np.float64).reshape(-1, 2))
         out = np.empty((len(shifts), 2, 3, cells))
-        pairs = (s.table_out if s.table_out is not None
-                 else np.full(len(s.p_in), -1, dtype=np.intp))
         inv_var_l, inv_var_c, _ = self._args
-        arrays = _sample_arrays(s)
+        arrays = _sample_arrays(s)    # its table_out: the outline pairs (all -1 without)
         soft_slack_sums_kernel(Ms, ts, self.K1, rig.cam1.distortion12, self.K2,
                                rig.cam2.distortion12, shifts, arrays.xy_in, s.f_in,
                                arrays.xy_out, s.f_out,
@@ -488,6 +486,6 @@ class SoftFitness:
                                self.features.pyramids[1][self.level], inv_var_l, inv_var_c,
                                self._table_out, self.edge_mix_fraction,
                                self._lin_in, np.ascontiguousarray(offsets, dtype=np.float64),
-                               pairs, np.ascontiguousarray(cell_in, dtype=np.intp),
+                               arrays.table_out, np.ascontiguousarray(cell_in, dtype=np.intp),
                                np.ascontiguousarray(cell_out, dtype=np.intp), out)
         return out
