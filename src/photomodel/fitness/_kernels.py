@@ -248,11 +248,12 @@ def _matches(code_img, sat_img, code_model, min_sat, thr):  # pragma: no cover -
 def _count(R, t, K, D, pts, codes, min_sat, img, sat, thr):  # pragma: no cover - compiled
     h, w = img.shape
     n = 0
+    lens = lens_constants(K, D)
     for j in range(pts.shape[0]):
         X = R[0, 0] * pts[j, 0] + R[0, 1] * pts[j, 1] + R[0, 2] * pts[j, 2] + t[0]
         Y = R[1, 0] * pts[j, 0] + R[1, 1] * pts[j, 1] + R[1, 2] * pts[j, 2] + t[1]
         Z = R[2, 0] * pts[j, 0] + R[2, 1] * pts[j, 1] + R[2, 2] * pts[j, 2] + t[2]
-        u, v = _project(X, Y, Z, K, D)
+        u, v = project_lens(X, Y, Z, lens)
         iu = int(np.floor(u + 0.5))
         iv = int(np.floor(v + 0.5))
         if iu < 0 or iv < 0 or iu >= w or iv >= h:
