@@ -8,12 +8,10 @@ import numpy as np
 import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
-from photomodel.fitness import SoftFitness, StereoFeatures
+from photomodel.fitness import KernelFitness, KernelNormalEquations, SoftFitness, StereoFeatures
 from photomodel.geometry import eps_from_rotation, flat_pose_vectors, quat_wxyz_from_matrix
 from photomodel.search import (
     GaussNewtonConfig,
-    KernelFitness,
-    KernelNormalEquations,
     LocalRefine,
     RefineConfig,
     ResidualFitness,

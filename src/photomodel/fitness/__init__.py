@@ -6,6 +6,7 @@ from photomodel.fitness._edges import NO_SLACK, ScoreSlack, ScoreTerms, edge_evi
 from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
 from photomodel.fitness._light import light_offset_candidates
 from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
+from photomodel.fitness._protocols import KernelFitness, KernelNormalEquations
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._scan import (
     ScanConfig,
@@ -21,6 +22,8 @@ __all__ = [
     "NO_SLACK",
     "Fitness",
     "HueMatch",
+    "KernelFitness",
+    "KernelNormalEquations",
     "ModelSamples",
     "PaperFitness",
     "PaperVotes",

@@ -348,7 +348,7 @@ class SoftFitness:
 
     def kernel_args(self) -> tuple[Any, ...]:
         """The arguments with which the searches' numba loops evaluate this fitness
-        (:class:`~photomodel.search.KernelFitness`; ``soft_fitness_values`` in numba)."""
+        (:class:`~photomodel.fitness.KernelFitness`; ``soft_fitness_values`` in numba)."""
         return self._kernel_args
 
     def last_offsets(self) -> NDArray[np.float64]:
@@ -405,7 +405,7 @@ class SoftFitness:
 
     def normal_args(self) -> tuple[Any, ...]:
         """The arguments with which Gauss-Newton's numba loop takes :meth:`normal_equations`
-        (:class:`~photomodel.search.KernelNormalEquations`; ``soft_normal_equations``)."""
+        (:class:`~photomodel.fitness.KernelNormalEquations`; ``soft_normal_equations``)."""
         if self.palette_weight > 0:
             raise ValueError("normal equations: defined for the own colours only "
                              "(palette_weight 0)")

@@ -30,6 +30,7 @@ from numba import njit, prange
 from numba.extending import overload
 
 from photomodel.fitness._kernels import exp_neg, plane_pixel_jacobians
+from photomodel.fitness._protocols import kernel_normal_equations
 from photomodel.fitness._soft_kernels import (
     _LOGS,
     _OPPONENT,
@@ -40,7 +41,6 @@ from photomodel.fitness._soft_kernels import (
     ring_size,
     soft_args_type,
 )
-from photomodel.search._kernel_loops import kernel_normal_equations
 
 
 @njit(cache=True, inline="always", fastmath=True, error_model="numpy")

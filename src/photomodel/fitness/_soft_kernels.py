@@ -17,7 +17,7 @@ from photomodel.fitness._kernels import (
     plane_point,
     project_lens,
 )
-from photomodel.search._kernel_loops import kernel_values
+from photomodel.fitness._protocols import kernel_values
 
 _OFFSET_ITERATIONS = 3
 """Mean-shift steps of the light offsets from each start."""

@@ -15,7 +15,6 @@ from photomodel.search._gauss_newton import (
     ResidualFitness,
     gauss_newton_refine,
 )
-from photomodel.search._kernel_loops import KernelFitness, KernelNormalEquations
 from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._pyramid import PyramidConfig, PyramidResult, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
@@ -38,8 +37,6 @@ __all__ = [
     "GAConfig",
     "GaussNewtonConfig",
     "GlobalThenLocal",
-    "KernelFitness",
-    "KernelNormalEquations",
     "LocalCMA",
     "LocalCMAConfig",
     "LocalRefine",

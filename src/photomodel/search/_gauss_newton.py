@@ -57,6 +57,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel.fitness._protocols import KernelNormalEquations
 from photomodel.geometry import pose_vectors_to_matrices, rotation_from_eps, strained_matrices
 from photomodel.search._base import SearchResult, conforms
 from photomodel.search._gauss_newton_loop import (
@@ -71,7 +72,6 @@ from photomodel.search._gauss_newton_loop import (
 )
 from photomodel.search._gauss_newton_loop import extrapolation as _extrapolation
 from photomodel.search._gauss_newton_loop import map_derivatives as _map_derivatives
-from photomodel.search._kernel_loops import KernelNormalEquations
 from photomodel.search._space import SearchSpace
 
 __all__ = ["NO_ASCENT", "GaussNewtonConfig", "NormalEquationsFitness", "ResidualFitness",

@@ -4,7 +4,7 @@
 of Python an iteration (pose maps, the fitness's wrappers, the damped solve, clipping, the
 strain's prior) beside the normal equations' 0.2 ms (level 1) and 0.55 ms (level 0): on the
 typical stereo pair 3.3 of its 12.7 ms. A fitness whose values and normal equations have
-numba kernels (:class:`~photomodel.search.KernelNormalEquations`, the ``soft`` fitness,
+numba kernels (:class:`~photomodel.fitness.KernelNormalEquations`, the ``soft`` fitness,
 through ``_kernel_loops.kernel_values`` and ``kernel_normal_equations``) is refined here by
 the same iterations in one compiled loop. The arithmetic both
 loops share (the prior's terms, the damped solve, the extrapolation, the step's slope, the
@@ -19,8 +19,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from photomodel.fitness._protocols import kernel_normal_equations, kernel_values
 from photomodel.geometry import pose_maps_kernel
-from photomodel.search._kernel_loops import kernel_normal_equations, kernel_values
 
 CONVERGED, NO_ASCENT_CODE, OUT_OF_ITERATIONS = 0, 1, 2
 """The loop's stop codes."""

@@ -13,67 +13,19 @@ result to the bit (``tests/search/test_kernel_loops.py``).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Protocol, runtime_checkable
 
 import numba
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from photomodel.fitness._protocols import KernelFitness, kernel_values
 from photomodel.geometry import facing_kernel, facing_pose_vectors, pose_maps_kernel
 from photomodel.search._base import SearchResult, conforms
 from photomodel.search._refine import RefineConfig
 from photomodel.search._space import SearchSpace
 
-__all__ = ["KernelFitness", "KernelNormalEquations", "OnPlane", "kernel_fitness",
-           "kernel_normal_equations", "kernel_values", "plane_poses", "refine_kernel"]
-
-
-@runtime_checkable
-class KernelFitness(Protocol):
-    """A fitness whose numba kernel the searches' numba loops call (``SoftFitness``)."""
-
-    def __call__(self, poses: NDArray[np.float64]) -> NDArray[np.float64]: ...
-
-    def kernel_args(self) -> tuple[Any, ...]:
-        """The arguments of :func:`kernel_values` that give this fitness: a tuple whose numba
-        type has an implementation registered for it."""
-        ...
-
-
-@runtime_checkable
-class KernelNormalEquations(KernelFitness, Protocol):
-    """A kernel fitness whose normal equations have a numba kernel too (``SoftFitness``)."""
-
-    def normal_args(self) -> tuple[Any, ...]:
-        """The arguments of :func:`kernel_normal_equations` that give this fitness's
-        ``normal_equations``."""
-        ...
-
-
-def kernel_values(T: NDArray[np.float64], lanes: int, args: tuple[Any, ...]
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The fitness (P,) of maps ``T`` (P, 4, 4) of model points into camera 1, on ``lanes``
-    threads, and the light offsets (P, 2, 3) it found for each pose (those of
-    ``ResidualFitness.last_offsets``), of the kernel fitness whose :meth:`KernelFitness.
-    kernel_args` are ``args``.
-
-    For numba code only: numba resolves it by the type of ``args`` to the implementation the
-    fitness registers with ``numba.extending.overload`` (the ``soft`` fitness's in
-    ``fitness/_soft_kernels.py``). The loops take no function arguments: numba's cache
-    failed to save functions with one when two processes compiled them at once
-    (``ReferenceError: underlying object has vanished``, numba issue 9348)."""
-    raise NotImplementedError("kernel_values runs inside numba code only")
-
-
-def kernel_normal_equations(A: NDArray[np.float64], dA: NDArray[np.float64],
-                            offsets: NDArray[np.float64], with_offsets: bool,
-                            args: tuple[Any, ...]
-                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """What ``NormalEquationsFitness.normal_equations(A, dA, offsets, with_offsets)`` gives
-    (gradient (G,), metric (G, G)) for the fitness whose :meth:`KernelNormalEquations.
-    normal_args` are ``args``; resolved by numba as :func:`kernel_values`."""
-    raise NotImplementedError("kernel_normal_equations runs inside numba code only")
+__all__ = ["OnPlane", "kernel_fitness", "plane_poses", "refine_kernel"]
 
 
 def plane_poses(flat: NDArray[np.float64], space: SearchSpace,
