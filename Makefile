@@ -13,10 +13,14 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# `photomodel warmup --all` compiles every numba kernel into the cache first, in parallel
+# processes, with progress (seconds when they are cached already).
 demo: $(STAMP)
+	$(BIN)/photomodel warmup --all
 	$(BIN)/photomodel demo --out $(DEMO_DIR) --seed 3
 
 test: $(STAMP)
+	$(BIN)/photomodel warmup --all
 	$(BIN)/python -m pytest -m "not slow" -q
 
 test-all: $(STAMP)

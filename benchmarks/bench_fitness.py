@@ -15,7 +15,7 @@ import numpy as np
 from _meta import metadata, timed
 
 from photomodel.fitness import make_fitness
-from photomodel.locate import locate
+from photomodel.locate import Locator
 from photomodel.model import build_photo_model
 from photomodel.search import SearchSpace
 from photomodel.sim import (
@@ -51,9 +51,10 @@ def main() -> None:
     t_ref = timed(lambda: ref(population), 10)
 
     t_locate = []
+    locator = Locator(model, rig)
     for k in range(args.scenes):
         sc = random_stereo_scene(garment, rig, rng=args.seed + 100 + k)
-        res = locate(model, rig, sc.right_bgr, sc.left_bgr, rng=k)
+        res = locator(sc.right_bgr, sc.left_bgr, rng=k)
         t_locate.append(res.seconds)
 
     result = {

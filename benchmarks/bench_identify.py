@@ -5,9 +5,9 @@ The scenes are those of the accuracy study and of ``photomodel simulate --seed``
 the models built from the same model photos. Per scene, in the same process and run, in
 alternating order (so a slow phase of the shared machine hits both alike):
 
-``locate``    ``photomodel.locate.locate(true_model, rig, right, left, rng=...)`` (default
+``locate``    ``photomodel.Locator(true_model, rig)(right, left, rng=...)`` (default
               ``soft`` method), what a cell that knows the garment runs;
-``identify``  ``photomodel.identify.identify(all_12_models, rig, right, left, rng=...)``,
+``identify``  ``photomodel.Identifier(all_12_models, rig)(right, left, rng=...)``,
               features included.
 
 Reported: median seconds of each, the ratio of the medians and the median of the per-scene
@@ -34,10 +34,9 @@ from typing import Any
 import numpy as np
 from _meta import metadata
 
-from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
+from photomodel.experiments import ExperimentConfig, Trial, trial_inputs, trial_locator
 from photomodel.experiments._trials import _model
-from photomodel.identify import identify
-from photomodel.locate import locate
+from photomodel.identify import Identifier
 from photomodel.sim import garment_names, scene_rng
 
 TARGET_RATIO_MAX = 4.0
@@ -49,8 +48,9 @@ def run(garments: list[str], conditions: list[str], scenes: int, seed: int) -> d
     library = [_model(config, g) for g in garment_names()]
     first = Trial(f"{conditions[0]}_{garments[0]}_0000", garments[0], conditions[0], 0)
     model, rig, right, left, _, _ = trial_inputs(config, first)
-    locate(model, rig, right, left, rng=0)  # JIT warm-up
-    identify(library, rig, right, left, rng=0)
+    trial_locator(config, garments[0])(right, left, rng=0)  # JIT warm-up
+    identifier = Identifier(library, rig)
+    identifier(right, left, rng=0)
     rows = []
     k = 0
     for cond in conditions:
@@ -67,9 +67,9 @@ def run(garments: list[str], conditions: list[str], scenes: int, seed: int) -> d
                 for what in order:
                     t0 = time.perf_counter()
                     if what == "locate":
-                        locate(model, rig, right, left, rng=rng_l)
+                        trial_locator(config, g)(right, left, rng=rng_l)
                     else:
-                        res_i = identify(library, rig, right, left, rng=rng_i)
+                        res_i = identifier(right, left, rng=rng_i)
                     times[what] = time.perf_counter() - t0
                 assert res_i is not None
                 rows.append({

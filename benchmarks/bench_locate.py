@@ -62,9 +62,15 @@ import numpy as np
 from _meta import metadata
 from peer_sift import ModelFeatures, model_features, sift_locate
 
-from photomodel.experiments import ExperimentConfig, Trial, trial_inputs, trial_record
+from photomodel.experiments import (
+    ExperimentConfig,
+    Trial,
+    trial_inputs,
+    trial_locator,
+    trial_record,
+)
 from photomodel.geometry import in_plane_angle_rad
-from photomodel.locate import PAPER_METHOD, LocateResult, locate
+from photomodel.locate import PAPER_METHOD, LocateResult, PaperMethod, locate
 from photomodel.model import PhotoModel
 from photomodel.sim import garment_names, parse_conditions, scene_rng
 
@@ -178,10 +184,10 @@ def _run_methods(config: ExperimentConfig, trial: Trial, methods: Sequence[str],
             rows.append(_finish(rec, method, pass_name, res.T_cam1_model, T_true,
                                 res.inliers, res.reason))
             continue
-        extra = PAPER_METHOD if method == "paper" else {}
-        result: LocateResult = locate(model, rig, right, left,
-                                      rng=scene_rng(config.seed, "search", trial.trial_id),
-                                      **extra)
+        rng = scene_rng(config.seed, "search", trial.trial_id)
+        result: LocateResult = (
+            locate(model, rig, right, left, rng=rng, method=PAPER_METHOD) if method == "paper"
+            else trial_locator(config, trial.garment)(right, left, rng=rng))
         rec = trial_record(trial, result, T_true, visible)
         rows.append(_finish(rec, method, pass_name, result.T_cam1_model, T_true,
                             float("nan"), str(result.search.stop_reason)))
@@ -198,17 +204,17 @@ def _warm_up(config: ExperimentConfig, trial: Trial, methods: Sequence[str]) -> 
             sift_locate(model, rig, right, left, features=_features(model, config.seed,
                                                                     trial.garment))
         elif method == "paper":
-            short = {**PAPER_METHOD, "ga_config": GAConfig.paper(max_generations=2)}
-            locate(model, rig, right, left, rng=0, **short)
+            short = PaperMethod(ga=GAConfig.paper(max_generations=2))
+            locate(model, rig, right, left, rng=0, method=short)
         else:
-            locate(model, rig, right, left, rng=0)
+            trial_locator(config, trial.garment)(right, left, rng=0)
 
 
 def _prepare_models(configs: dict[str, ExperimentConfig], conditions: Sequence[str],
                     garments: Sequence[str]) -> list[float]:
-    """One ``locate`` of every garment's model with every rig of the timing pass (the first
-    scene of the first condition that uses it): the model's first stereo pair, which builds
-    and keeps its per-level samples and scan kernels. Returns their times (s)."""
+    """The :class:`~photomodel.Locator` of every garment's model with every rig of the
+    timing pass (it prepares the model: per-level samples and scan kernels) and its first
+    ``locate``. Returns the times (s) of both together."""
     seconds = []
     seen: set[int] = set()
     for cond in conditions:
@@ -220,7 +226,7 @@ def _prepare_models(configs: dict[str, ExperimentConfig], conditions: Sequence[s
             model, rig, right, left, _, _ = trial_inputs(config, Trial(f"{cond}_{g}_0000", g,
                                                                       cond, 0))
             t = time.perf_counter()
-            locate(model, rig, right, left, rng=0)
+            trial_locator(config, g)(right, left, rng=0)
             seconds.append(time.perf_counter() - t)
     return seconds
 

@@ -44,9 +44,8 @@ from peer_sift import model_features, sift_locate
 
 import photomodel.locate._locate as locate_module
 import photomodel.search._pyramid as pyramid_module
-from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
+from photomodel.experiments import ExperimentConfig, Trial, trial_inputs, trial_locator
 from photomodel.fitness import ScanConfig
-from photomodel.locate import locate
 from photomodel.sim import garment_names, scene_rng
 
 CONDITIONS = (
@@ -157,7 +156,7 @@ def _timed_scenes(config: ExperimentConfig, scenes: Sequence[tuple[Any, ...]],
     for g in garments:   # warm-up: numba's kernels, each model's first stereo pair, the peer
         model, rig, right, left, _, _ = trial_inputs(config, Trial(f"paper_{g}_0000", g,
                                                                   "paper", 0))
-        locate(model, rig, right, left, rng=0)
+        trial_locator(config, g)(right, left, rng=0)
         if peer:
             features[g] = model_features(model)
             sift_locate(model, rig, right, left, features=features[g])
@@ -165,8 +164,8 @@ def _timed_scenes(config: ExperimentConfig, scenes: Sequence[tuple[Any, ...]],
     for trial, model, rig, right, left, T_true in scenes:
         timers.reset()
         t0 = time.perf_counter()
-        result = locate(model, rig, right, left,
-                        rng=scene_rng(seed, "search", trial.trial_id))
+        result = trial_locator(config, trial.garment)(
+            right, left, rng=scene_rng(seed, "search", trial.trial_id))
         seconds = time.perf_counter() - t0
         peer_seconds = None
         if peer:

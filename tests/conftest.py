@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +19,10 @@ from photomodel.sim import (
     model_station_camera,
     render_model_photos,
 )
+
+# The tests read the package's threshold, not a user's calibration in ~/.config.
+os.environ["PHOTOMODEL_THRESHOLD"] = os.path.join(tempfile.gettempdir(),
+                                                  "photomodel-tests-no-threshold.json")
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,6 @@ from photomodel.sim import (
     render_model_photos,
 )
 
-GENERATIONS = "30"  # keeps locate fast; accuracy is tested elsewhere
-
 LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
                "fitness", "score", "seconds"}
 
@@ -244,7 +242,7 @@ def _locate_argv(data: CliData, **files: Path) -> list[object]:
     return ["locate", "--model", files.get("model", data.model),
             "--stereo", files.get("stereo", data.stereo),
             "--right", files.get("right", data.right), "--left", files.get("left", data.left),
-            "--seed", "0", "--generations", GENERATIONS]
+            "--seed", "0"]
 
 
 def _locate_error(capsys: pytest.CaptureFixture[str], data: CliData, tmp_path: Path,
@@ -452,3 +450,76 @@ def test_locate_human_readable(capsys, data: CliData) -> None:
     assert "garment" in out
     with pytest.raises(json.JSONDecodeError):
         json.loads(out)
+
+
+# --- the file contract and the options of each method ----------------------------------------
+
+
+@pytest.mark.parametrize("name", ["shirt.model", "shirt", "shirt.npz"])
+def test_build_writes_exactly_the_given_path_and_locate_reads_it(
+        capsys, data: CliData, tmp_path: Path, name: str) -> None:
+    out = tmp_path / name
+    code, stdout, err = _run(capsys, ["build", "--photo", data.photo, "--background",
+                                      data.background, "--camera", data.camera, "--out", out])
+    assert code == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "shirt.preview.png"])
+    assert "'shirt'" in stdout     # the name without .model / .npz
+    code, stdout, err = _run(capsys, [*_locate_argv(data, model=out), "--json"])
+    assert code == 0, err
+    assert json.loads(stdout)["model"] == "shirt"
+
+
+def test_build_out_naming_an_existing_directory_is_an_error(capsys, data: CliData,
+                                                            tmp_path: Path) -> None:
+    folder = tmp_path / "models"
+    folder.mkdir()
+    code, out, err = _run(capsys, ["build", "--photo", data.photo, "--background",
+                                   data.background, "--camera", data.camera, "--out", folder])
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and "is a directory" in err and "models" in err
+    assert list(folder.iterdir()) == []
+
+
+@pytest.mark.parametrize("option", [["--optimizer", "full"], ["--fitness", "balanced"],
+                                    ["--generations", "5"], ["--refine"]])
+def test_paper_options_with_the_default_method_are_refused(capsys, data: CliData,
+                                                           option: list[str]) -> None:
+    code, out, err = _run(capsys, [*_locate_argv(data), *option])
+    assert code == 2 and out == ""
+    assert err.strip() == f"photomodel: error: {option[0]}: applies to --method paper only"
+
+
+@pytest.mark.parametrize("value", ["2", "-0.1", "nan"])
+def test_a_min_score_outside_0_1_is_refused(capsys, data: CliData, value: str) -> None:
+    code, out, err = _run(capsys, [*_locate_argv(data), "--min-score", value])
+    assert code == 2 and "--min-score" in err and "[0, 1]" in err
+
+
+def test_the_paper_method_runs_with_its_options(capsys, data: CliData) -> None:
+    code, out, err = _run(capsys, [*_locate_argv(data), "--method", "paper", "--generations",
+                                   "3", "--json"])
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["generations"] <= 3 and 0.0 <= result["score"] <= 1.0
+
+
+def _modules_after(argv: list[str]) -> set[str]:
+    """The heavy modules a new process has loaded after ``photomodel ARGV`` returned."""
+    code = ("import sys\nfrom photomodel.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            "print('MODULES:', *(m for m in ('numba', 'scipy', 'matplotlib', 'cma', 'skimage') "
+            "if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True,
+                          timeout=120)
+    last = done.stdout.strip().splitlines()[-1]
+    assert last.startswith("MODULES:"), done.stdout
+    return set(last.split()[1:])
+
+
+def test_help_and_error_paths_load_no_numba_scipy_or_matplotlib(data: CliData,
+                                                                tmp_path: Path) -> None:
+    assert _modules_after(["--help"]) == set()
+    assert _modules_after(["locate", "--help"]) == set()
+    missing = tmp_path / "missing.npz"
+    assert _modules_after([str(a) for a in _locate_argv(data, model=missing)]) == set()
+    assert _modules_after(["locate", "--model", str(data.model), "--bogus"]) == set()

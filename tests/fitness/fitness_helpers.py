@@ -18,3 +18,21 @@ def bilinear_samples(img: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.nd
     top = img[iv, iu] * (1 - fu) + img[iv, iu + 1] * fu
     bottom = img[iv + 1, iu] * (1 - fu) + img[iv + 1, iu + 1] * fu
     return top * (1 - fv) + bottom * fv, ok
+
+
+def residual_products(r: np.ndarray, ok: np.ndarray, weights: np.ndarray, h: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The held-offset gradient ``-J^T (w r)`` (G,) and the inner points' metric
+    ``J^T diag(w) J`` (G, G) from forward differences of the residuals: ``r`` (1 + G,
+    cameras, N, 3) of a gene vector and of its G forward differences (steps ``h`` (G,)),
+    ``ok`` (1 + G, cameras, N) whether each sample fell inside the image. A sample counts
+    where every pose saw it; its weight ``w`` is its signed ``weights`` (N,) times its
+    agreement ``exp(-|r|^2 / 2)``, averaged over the cameras; the metric takes the inner
+    (positive) samples only."""
+    usable = ok.all(axis=0)
+    r0 = r[0]
+    J = (r[1:] - r0) / h[:, None, None, None]
+    w = np.exp(-0.5 * np.sum(r0**2, axis=-1)) * weights / r.shape[1] * usable
+    inner = np.where(weights > 0, w, 0.0)
+    return (-np.einsum("gcnd,cn,cnd->g", J, w, r0),
+            np.einsum("gcnd,cn,hcnd->gh", J, inner, J))

@@ -26,7 +26,6 @@ from photomodel.geometry import (
     flat_pose_vectors,
     in_plane_angle_rad,
     pose_vectors_to_matrices,
-    strained_matrices,
 )
 from photomodel.locate import COARSE_SCAN, locate
 from photomodel.search import PyramidConfig, SearchSpace, pyramid_search
@@ -127,15 +126,16 @@ def test_scan_puts_a_covered_or_cluttered_garment_first(garment: str, condition:
 def test_the_scan_keeps_its_kernels_and_shares_them_between_depths() -> None:
     """A second scan of one model reuses the kernels' spectra and finds the same peaks; one
     kernel set per depth (each depth at its own resolution) finds the same best peak."""
-    from photomodel.fitness import _scan
+    from photomodel.fitness import PreparedModel
 
-    model, features, T_true = _case("No.6", "gripper")
+    bare, features, T_true = _case("No.6", "gripper")
+    model = PreparedModel(bare)
     space = SearchSpace.from_ranges()
     first = scan_flat_poses(model, features, space.lower, space.upper)
-    (plan,) = _scan._PLANS[id(model)].values()
+    (plan,) = model.kept.get("scan plans", dict).values()
     assert len(plan) == 3      # 9 depths, 3 per kernel set
     again = scan_flat_poses(model, features, space.lower, space.upper)
-    (kept,) = _scan._PLANS[id(model)].values()
+    (kept,) = model.kept.get("scan plans", dict).values()
     assert all(a.kernels is b.kernels for a, b in zip(plan, kept, strict=True))
     np.testing.assert_array_equal(first.poses, again.poses)
     np.testing.assert_array_equal(first.scores, again.scores)
@@ -147,17 +147,16 @@ def test_the_scan_keeps_its_kernels_and_shares_them_between_depths() -> None:
 
 
 def test_the_scans_labels_are_kept_per_samples_and_colour_tolerances() -> None:
-    """Every pair's scan labels the same samples with their nearest palette colours: kept,
-    the same arrays for the next pair, others for other colour tolerances; the cache holds
-    no reference to the samples (they go with their model)."""
-    import gc
-    import weakref
+    """Every pair's scan labels the same samples with their nearest palette colours: kept
+    with the samples of the prepared model, the same arrays for the next pair, others for
+    other colour tolerances; a bare model keeps nothing between calls."""
     from types import SimpleNamespace
 
-    from photomodel.fitness import SoftMatch
-    from photomodel.fitness._scan import _LABELS, _labelled
+    from photomodel.fitness import PreparedModel, SoftMatch
+    from photomodel.fitness._scan import _labelled
 
-    model, features, _ = _case("No.1")
+    bare, features, _ = _case("No.1")
+    model = PreparedModel(bare)
     first = _labelled(model, features, ScanConfig())
     again = _labelled(model, features, ScanConfig())
     assert again.samples is first.samples and again.label_in is first.label_in
@@ -167,15 +166,10 @@ def test_the_scans_labels_are_kept_per_samples_and_colour_tolerances() -> None:
     wider = SimpleNamespace(match=SoftMatch(sigma_c=2 * features.match.sigma_c))
     other = _labelled(model, wider, ScanConfig())  # type: ignore[arg-type]
     assert other.samples is first.samples and other.weights[1] != first.weights[1]
-    samples = weakref.ref(first.samples)
-    key = id(first.samples)
-    assert key in _LABELS
-    del first, again, other
-    for kept in _LABELS.values():
-        for entry in kept.values():
-            assert all(x is not samples() for x in entry)
-    gc.collect()
-    assert samples() is not None    # the model keeps it
+    assert ("labels", wider.match.sigma_l, wider.match.sigma_c) in first.samples.kept
+    fresh = _labelled(PreparedModel(bare), features, ScanConfig())
+    assert fresh.samples is not first.samples
+    np.testing.assert_array_equal(fresh.label_in, first.label_in)
 
 
 def test_scan_config_rejects_bad_values() -> None:
@@ -301,24 +295,6 @@ def test_light_offset_candidates_find_a_known_shift() -> None:
     assert np.allclose(found[0][1], shift, atol=0.101), found[0]
     with pytest.raises(ValueError, match="count"):
         light_offset_candidates(model, image, count=0)
-
-
-def test_a_search_that_stops_on_level_1_scores_on_level_0() -> None:
-    """``finest_level=1`` skips level 0's refinement, not its score (the threshold's scale)."""
-    model, features, T_true = _case("No.1")
-    space = SearchSpace.from_ranges()
-    asked: list[tuple[int, float]] = []
-    seeds = scan_flat_poses(model, features, space.lower, space.upper).poses
-    result = pyramid_search(_recording(model, features, asked), space,
-                            PyramidConfig(finest_level=1), rng=0, seeds=seeds)
-    assert [lv for lv, _ in asked].count(0) == 1 and "gauss-newton" in result.stop_reason
-    level0 = SoftFitness(model, features, 0, optics_blur_mm=result.optics_blur_mm)
-    assert result.strain is not None    # the fitted strain, scored with the pose
-    at = strained_matrices(result.x, result.strain)
-    assert result.fitness == pytest.approx(level0.evaluate_transforms(at)[0])
-    assert np.linalg.norm(pose_vectors_to_matrices(result.x)[0][:3, 3] - T_true[:3, 3]) < 3.0
-    with pytest.raises(ValueError, match="finest_level"):
-        PyramidConfig(finest_level=3)
 
 
 def test_the_shift_sweep_brings_a_stripe_repeat_back() -> None:

@@ -10,7 +10,13 @@ from fitness_helpers import bilinear_samples
 from scipy.spatial.transform import Rotation
 
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs
-from photomodel.fitness import SoftFitness, SoftMatch, StereoFeatures, model_samples
+from photomodel.fitness import (
+    PreparedModel,
+    SoftFitness,
+    SoftMatch,
+    StereoFeatures,
+    model_samples,
+)
 from photomodel.fitness._soft import level_spacing
 from photomodel.geometry import in_plane_angle_rad, pose_vectors_to_matrices
 from photomodel.image._features import linear_intensity, log_opponent
@@ -74,7 +80,8 @@ def test_fitnesses_of_one_pair_share_their_samples_arrays_and_cameras() -> None:
     one with arrays of its own."""
     from photomodel.fitness._soft import _sample_arrays
 
-    model, rig, right, left, T, _ = _case("No.1", "paper")
+    bare, rig, right, left, T, _ = _case("No.1", "paper")
+    model = PreparedModel(bare)
     features = StereoFeatures(rig, right, left)
     a = SoftFitness(model, features, 1)
     b = SoftFitness(model, features, 1, palette_weight=0.3)
@@ -149,7 +156,7 @@ def test_pyramid_search_finds_a_grey_garment() -> None:
 def test_coarse_own_colours_walk_in_to_a_print() -> None:
     """From where the palette GA leaves a dotted skirt (tens of mm and about 5 deg off),
     level 2's own colours settle a dot or so away; level 3's own colours first walk in
-    (``PyramidConfig.coarse_own_colours``)."""
+    (the coarse level's refinement of each hypothesis in :func:`pyramid_search`)."""
     model, rig, right, left, T_true, _ = _case("No.5")
     features = StereoFeatures(rig, right, left)
     x_true = _vector(T_true)
@@ -175,7 +182,7 @@ def test_coarse_own_colours_walk_in_to_a_print() -> None:
 
 def test_the_model_blur_stays_on_the_garment() -> None:
     """A heavy camera blur mixes the garment's own colours, not the model station's backdrop."""
-    model = _case("No.6")[0]
+    model = PreparedModel(_case("No.6")[0])
     sharp = model_samples(model, level_spacing(0, optics_blur_mm=0.0))
     blurred = model_samples(model, level_spacing(0, optics_blur_mm=2.8))
     assert blurred.p_in is sharp.p_in  # one geometry for every blur
@@ -190,7 +197,8 @@ def test_the_model_blur_stays_on_the_garment() -> None:
 
 
 def test_pyramid_search_estimates_the_camera_blur() -> None:
-    model, rig, right, left, T_true, _ = _case("No.1", "blur")   # 1.8 px = 1.55 mm
+    bare, rig, right, left, T_true, _ = _case("No.1", "blur")   # 1.8 px = 1.55 mm
+    model = PreparedModel(bare)
     features = StereoFeatures(rig, right, left)
     result = pyramid_search(
         lambda lv, w, b: SoftFitness(model, features, lv, palette_weight=w, optics_blur_mm=b),
@@ -503,8 +511,9 @@ def _strained_case(garment: str, condition: str, level: int, shift_mm: list[floa
 def test_normal_equations_match_the_residuals_differences(garment: str, level: int) -> None:
     """The analytic gradient and metric (a strained map, nine genes, the edge mixture of the
     inner ring included) agree with those of forward differences of the residuals."""
-    from photomodel.geometry import rotation_from_eps
-    from photomodel.search._gauss_newton import _map_derivatives, _weighted_products
+    from fitness_helpers import residual_products
+
+    from photomodel.search._gauss_newton import _map_derivatives
 
     fitness, x, offsets = _strained_case(garment, "paper", level, [0.8, -0.5, 2.0], 0.002,
                                          [-0.01, 0.005, 0.003])
@@ -514,8 +523,7 @@ def test_normal_equations_match_the_residuals_differences(garment: str, level: i
     poses = np.repeat(x[None], 10, axis=0)
     poses[1:] += np.diag(h)
     r, ok = fitness.residuals(maps(poses), offsets)
-    g_diff, m_diff = _weighted_products(r, ok, fitness.residual_weights(), h, np.arange(9),
-                                        np.zeros((0, 2)), rotation_from_eps(x[3:6]))
+    g_diff, m_diff = residual_products(r, ok, fitness.residual_weights(), h)
     free = np.ones(9, dtype=bool)
     g, m = fitness.normal_equations(maps(x[None])[0], _map_derivatives(x, free), offsets)
     np.testing.assert_allclose(g, g_diff, atol=0.01 * np.abs(g_diff).max())

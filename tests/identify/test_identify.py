@@ -85,3 +85,31 @@ def test_config_validation() -> None:
         IdentifyConfig(min_score=2.0)
     with pytest.raises(ValueError, match="retries"):
         IdentifyConfig(retries=-1)
+
+
+def test_an_identifier_prepares_its_library_and_gives_identifys_answer(
+        identify_data: IdentifyData, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``Identifier(ModelLibrary(dir), rig)`` answers as ``identify`` on the same models, and
+    a library file that does not load is skipped with one warning."""
+    import shutil
+    import warnings
+
+    from photomodel import Identifier, ModelLibrary
+
+    d = identify_data
+    library = tmp_path / "library"
+    shutil.copytree(d.library, library)
+    (library / "broken.npz").write_bytes(b"not a model")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        identifier = Identifier(ModelLibrary(library), d.rig,
+                                config=IdentifyConfig(max_candidates=2))
+    assert [str(w.message).split(":")[0] for w in caught] == [str(library / "broken.npz")]
+    assert sorted(m.name for m in identifier.models) == sorted(m.name for m in d.models)
+    assert all(loc.prepared.kept for loc in identifier.locators)   # prepared when made
+    result = identifier(d.scene_right, d.scene_left, rng=3)
+    assert result.found and result.model == "No.5"
+    again = identify(d.models, d.rig, d.scene_right, d.scene_left,
+                     config=IdentifyConfig(max_candidates=2, min_score=identifier.min_score),
+                     rng=3)
+    np.testing.assert_array_equal(result.best.T_cam1_model, again.best.T_cam1_model)

@@ -67,3 +67,32 @@ def test_a_file_read_before_is_read_again_when_it_changes(tmp_path: Path) -> Non
     p.unlink()
     with pytest.raises(InputError, match="not found"):
         load_threshold(p)
+
+
+def test_the_threshold_that_applies_and_where_a_calibration_goes(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Explicit file, else the library's, else the user's, else the package's; a new
+    calibration goes to the user's file, never into the installed package."""
+    from photomodel.locate import threshold_path, user_threshold_path
+    from photomodel.locate._threshold import _package_path
+
+    user = tmp_path / "config" / "photomodel" / "threshold.json"
+    monkeypatch.delenv("PHOTOMODEL_THRESHOLD", raising=False)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    assert user_threshold_path() == user
+    package = _package_path()
+    before = package.read_bytes()
+    assert threshold_path() == package
+    assert save_threshold(Threshold(0.37, {"source": "test"})) == user
+    assert threshold_path() == user and load_threshold().min_score == 0.37
+    library = tmp_path / "library"
+    library.mkdir()
+    assert threshold_path(library=library) == user
+    save_threshold(Threshold(0.44), library / "threshold.json")
+    assert load_threshold(library=library).min_score == 0.44
+    assert load_threshold(user).min_score == 0.37
+    with pytest.raises(InputError, match="package"):
+        save_threshold(Threshold(0.1), package)
+    assert package.read_bytes() == before
+    monkeypatch.setenv("PHOTOMODEL_THRESHOLD", str(tmp_path / "elsewhere.json"))
+    assert user_threshold_path() == tmp_path / "elsewhere.json"

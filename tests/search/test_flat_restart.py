@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from photomodel.search import PyramidConfig, SearchResult, SearchSpace
+from photomodel.search import NormalEquationsFitness, PyramidConfig, SearchResult, SearchSpace
 from photomodel.search._pyramid import _flat_restart
 from photomodel.sim import hand_stereo_rig
 
@@ -19,13 +19,12 @@ SPACE = SearchSpace.from_ranges(R_cam1_plane=FACING)
 
 
 class _Untouchable:
-    """A residual fitness that fails the test when anything evaluates it."""
+    """A fitness with normal equations that fails the test when anything evaluates it."""
 
     def _fail(self, *args: object) -> np.ndarray:
         raise AssertionError("the restart evaluated the fitness")
 
-    __call__ = evaluate_transforms = last_offsets = residuals = _fail
-    residual_weights = residual_points = _fail
+    __call__ = evaluate_transforms = last_offsets = normal_equations = _fail
 
 
 def _result(tilt_deg: float, strain: np.ndarray | None) -> SearchResult:
@@ -42,12 +41,13 @@ def _result(tilt_deg: float, strain: np.ndarray | None) -> SearchResult:
     (4.0, None),                              # no strain fitted
 ])
 def test_no_restart_where_it_does_not_apply(tilt_deg: float, strain: np.ndarray | None) -> None:
+    assert isinstance(_Untouchable(), NormalEquationsFitness)
     found, used = _flat_restart(_Untouchable(), _result(tilt_deg, strain), SPACE,
                                 PyramidConfig(), FACING)
     assert found is None and used == 0
 
 
-def test_the_restart_needs_a_residual_fitness() -> None:
+def test_the_restart_needs_a_fitness_with_normal_equations() -> None:
     found, used = _flat_restart(lambda poses: np.zeros(len(poses)),
                                 _result(4.0, np.array([-0.02, -0.02, 0.0])), SPACE,
                                 PyramidConfig(), FACING)

@@ -13,9 +13,10 @@ from photomodel.geometry import eps_from_rotation, flat_pose_vectors, quat_wxyz_
 from photomodel.search import (
     GaussNewtonConfig,
     LocalRefine,
+    NormalEquationsFitness,
     RefineConfig,
-    ResidualFitness,
     SearchSpace,
+    TransformFitness,
     gauss_newton_refine,
     run_search,
 )
@@ -95,10 +96,12 @@ def test_conforms_decides_as_isinstance_once_per_type() -> None:
     for _ in range(2):     # the second time from the kept decision
         for obj in (level2, python_only, lambda x: x, OnPlane(level2, _scene()[3],
                                                               np.array([1.0, 0, 0, 0]))):
-            for protocol in (KernelFitness, KernelNormalEquations, ResidualFitness):
+            for protocol in (KernelFitness, KernelNormalEquations, TransformFitness,
+                             NormalEquationsFitness):
                 assert conforms(obj, protocol) == isinstance(obj, protocol)
     assert conforms(level2, KernelNormalEquations)
     assert not conforms(python_only, KernelFitness)
+    assert conforms(python_only, NormalEquationsFitness)
 
 
 class _PythonOnly:
@@ -115,15 +118,6 @@ class _PythonOnly:
 
     def last_offsets(self) -> np.ndarray:
         return self.f.last_offsets()
-
-    def residuals(self, T: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return self.f.residuals(T, offsets)
-
-    def residual_weights(self) -> np.ndarray:
-        return self.f.residual_weights()
-
-    def residual_points(self) -> np.ndarray:
-        return self.f.residual_points()
 
     def normal_equations(self, A: np.ndarray, dA: np.ndarray, offsets: np.ndarray,
                          with_offsets: bool = False) -> tuple[np.ndarray, np.ndarray]:

@@ -253,3 +253,26 @@ def test_registered_by_name() -> None:
     for name, cls in (("rga", RealGA), ("cma", CMAES), ("de", DifferentialEvolution)):
         assert OPTIMIZERS[name] is cls
         assert isinstance(make_optimizer(name, SPACE, rng=0), cls)  # type: ignore[arg-type]
+
+
+def test_cma_is_imported_only_when_a_strategy_is_built() -> None:
+    """``import photomodel.search`` leaves the optional ``cma`` package unloaded."""
+    import subprocess
+    import sys
+
+    code = ("import sys, photomodel.search, photomodel.locate; "
+            "sys.exit('cma' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_cma_es_without_cma_names_the_option_and_the_extra(monkeypatch: pytest.MonkeyPatch
+                                                          ) -> None:
+    import sys
+
+    from photomodel.errors import InputError
+
+    monkeypatch.setitem(sys.modules, "cma", None)     # import cma raises ImportError
+    for build in (lambda: CMAES(SPACE, rng=0), lambda: make_optimizer("cma", SPACE, rng=0)):
+        with pytest.raises(InputError, match=r"^--optimizer cma: .*pip install "
+                                             r"'photomodel\[compare\]'"):
+            build()

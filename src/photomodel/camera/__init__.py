@@ -1,14 +1,15 @@
 """Camera models and calibration files: pinhole with OpenCV distortion, the stereo rig."""
 
-from photomodel.camera._io import (
-    load_camera,
-    load_distance_mm,
-    load_stereo,
-    save_camera,
-    save_stereo,
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_io": ["load_camera", "load_distance_mm", "load_stereo", "save_camera", "save_stereo"],
+        "_pinhole": ["PinholeCamera"],
+        "_stereo": ["StereoRig"],
+    },
 )
-from photomodel.camera._pinhole import PinholeCamera
-from photomodel.camera._stereo import StereoRig
 
 __all__ = [
     "PinholeCamera",

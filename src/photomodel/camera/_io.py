@@ -1,6 +1,6 @@
 """Calibration files: OpenCV ``FileStorage`` (YAML, XML, JSON) and ROS ``camera_info`` YAML.
 
-Keys (DESIGN.md): stereo rig ``K1``/``M1``, ``D1``, ``K2``/``M2``, ``D2``, ``R``, ``T`` and
+Keys (docs/contracts.md): stereo rig ``K1``/``M1``, ``D1``, ``K2``/``M2``, ``D2``, ``R``, ``T`` and
 optional ``image_width``, ``image_height``; single camera ``camera_matrix``/``K``,
 ``distortion_coefficients``/``D``, optional ``image_width``, ``image_height``, ``distance_mm``.
 ROS ``camera_info`` stores matrices as mappings with a ``data`` list; both forms are read.
@@ -192,7 +192,7 @@ def save_camera(path: str | os.PathLike[str], camera: PinholeCamera,
 
 
 def save_stereo(path: str | os.PathLike[str], rig: StereoRig) -> None:
-    """Write a stereo rig with ``cv2.FileStorage`` using the DESIGN.md keys."""
+    """Write a stereo rig with ``cv2.FileStorage`` using the docs/contracts.md keys."""
 
     def write(fs: cv2.FileStorage) -> None:
         if rig.cam1.width_px:

@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from photomodel.camera import load_camera, load_distance_mm
 from photomodel.errors import InputError
-from photomodel.image import read_color_image, write_image
-from photomodel.model import BuildConfig, build_photo_model, render_preview, save_model
+
+MODEL_SUFFIXES = (".npz", ".model")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from photomodel.model._config import BuildConfig
+
     d = BuildConfig()
     p = sub.add_parser("build", help="build a photo-model from a garment photo",
                        description="Build a photo-model (paper sec. 2.2) from a photo of the "
@@ -23,8 +24,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--distance-mm", type=float, default=None,
                    help="camera-to-plane distance (default: the camera file's distance_mm, "
                         "else 400)")
-    p.add_argument("--out", required=True, type=Path, help="model file to write (.npz)")
-    p.add_argument("--name", default=None, help="model name (default: the output file's stem)")
+    p.add_argument("--out", required=True, type=Path,
+                   help="model file to write, at exactly this path (e.g. shirt.model)")
+    p.add_argument("--name", default=None,
+                   help="model name (default: the output file's name without .npz/.model)")
     p.add_argument("--step-mm", type=float, default=d.step_mm, help="sampling pitch of S_in/S_out")
     p.add_argument("--band-gap-mm", type=float, default=d.band_gap_mm,
                    help="gap between the outline and S_out")
@@ -37,6 +40,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from photomodel.camera import load_camera, load_distance_mm
+    from photomodel.image import read_color_image, write_image
+    from photomodel.model import BuildConfig, build_photo_model, render_preview, save_model
+
+    if args.out.is_dir():
+        raise InputError(args.out, "is a directory; --out names the model file to write")
     camera = load_camera(args.camera)
     distance = args.distance_mm if args.distance_mm is not None else load_distance_mm(args.camera)
     distance = 400.0 if distance is None else distance
@@ -50,7 +59,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("build options", str(exc)) from None
     photo = read_color_image(args.photo)
     background = read_color_image(args.background)
-    name = args.name or (args.out.stem if args.out.suffix == ".npz" else args.out.name)
+    name = args.name or (args.out.stem if args.out.suffix.lower() in MODEL_SUFFIXES
+                         else args.out.name)
     built = build_photo_model(photo, background, camera, distance, name=name, config=config,
                               photo_source=args.photo, background_source=args.background)
     preview = None if args.no_preview else render_preview(photo, built)

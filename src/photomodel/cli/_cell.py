@@ -7,15 +7,7 @@ import json
 import sys
 
 from photomodel.cli._pick import add_layout_options, layout_and_settings
-from photomodel.cli._progress import count_progress
 from photomodel.errors import InputError
-from photomodel.robot import (
-    CellConfig,
-    animate_plan,
-    check_animation_path,
-    run_cell,
-    write_json_atomic,
-)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -43,7 +35,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from photomodel.cli._progress import count_progress
     from photomodel.experiments import run_metadata
+    from photomodel.robot import (
+        CellConfig,
+        animate_plan,
+        check_animation_path,
+        run_cell,
+        write_json_atomic,
+    )
     from photomodel.sim import parse_conditions
     from photomodel.sim._catalogue import expand_garments
 

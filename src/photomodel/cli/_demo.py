@@ -1,8 +1,11 @@
 """``photomodel demo``: an end-to-end run on built-in (simulated) data.
 
-Simulates a dataset (``photomodel simulate``: one catalogue garment's model photos, the stereo
-calibration and one stereo scene with its truth), then runs the real ``build`` and ``locate``
-commands on those files and prints the estimated pose beside the true one.
+Simulates a dataset (``photomodel simulate``: the garments' model photos, the stereo
+calibration, one stereo scene per garment with its truth), then runs the real commands on
+those files: ``build`` of every garment into a model library, ``locate`` of the first garment
+in its scene (with an overlay picture), and ``identify`` in the last garment's scene, and
+prints the estimated pose beside the true one. Layout under ``--out``: ``data/`` (the
+dataset), ``models/<name>.npz`` (the library, with previews), ``overlay.png``.
 """
 
 from __future__ import annotations
@@ -13,18 +16,17 @@ import io
 import json
 import shlex
 from pathlib import Path
-
-import numpy as np
-
-from photomodel.geometry import in_plane_angle_rad
+from typing import Any
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="simulate a scene, build its model, locate it, compare",
+    p = sub.add_parser("demo", help="simulate scenes, build models, locate and identify",
                        description="End-to-end demo on simulated data (no camera needed).")
     p.add_argument("--out", type=Path, default=Path("build/demo"), help="output directory")
-    p.add_argument("--seed", type=int, default=3, help="seed of the scene and the search")
-    p.add_argument("--garment", default="No.1", help="catalogue garment (No.1 ... No.12)")
+    p.add_argument("--seed", type=int, default=3, help="seed of the scenes and the searches")
+    p.add_argument("--garments", "--garment", default="No.3,No.5,No.9",
+                   help="catalogue garments, comma-separated (No.1 ... No.12); the first is "
+                        "located, the last identified")
     p.add_argument("--conditions", default="paper",
                    help="simulated conditions, e.g. paper, wood+wrinkles (see simulate --help)")
     p.set_defaults(run=run)
@@ -34,29 +36,49 @@ def run(args: argparse.Namespace) -> int:
     from photomodel.cli._main import main
 
     out: Path = args.out
-    data = out / "dataset"
-    name = args.garment
-    model = out / f"{name}.npz"
-    steps = [
-        ["simulate", "--out", str(data), "--garments", name, "--conditions", args.conditions,
-         "--scenes", "1", "--seed", str(args.seed), "--force"],
-        ["build", "--photo", str(data / "models" / name / "photo.bmp"),
-         "--background", str(data / "models" / name / "background.bmp"),
-         "--camera", str(data / "model_camera.yaml"), "--out", str(model), "--name", name],
-    ]
-    outputs = [_step(main, argv) for argv in steps]
-    if any(code for code, _ in outputs):
-        return next(code for code, _ in outputs if code)
+    data, library = out / "data", out / "models"
+    names = [g.strip() for g in args.garments.split(",") if g.strip()]
+    steps = [["simulate", "--out", str(data), "--garments", ",".join(names), "--conditions",
+              args.conditions, "--scenes", "1", "--seed", str(args.seed), "--force"]]
+    steps += [["build", "--photo", str(data / "models" / g / "photo.bmp"),
+               "--background", str(data / "models" / g / "background.bmp"),
+               "--camera", str(data / "model_camera.yaml"), "--out", str(library / f"{g}.npz"),
+               "--name", g] for g in names]
+    for argv in steps:
+        code, _ = _step(main, argv)
+        if code:
+            return code
     truth = json.loads((data / "truth.json").read_text())
-    scene_id, facts = next(iter(truth.items()))
-    scene = data / "scenes" / scene_id
+    scenes = {facts["model"]: scene_id for scene_id, facts in truth.items()}
+    first, last = names[0], names[-1]
+    scene = data / "scenes" / scenes[first]
     code, text = _step(main, [
-        "locate", "--model", str(model), "--stereo", str(data / "stereo.yaml"),
+        "locate", "--model", str(library / f"{first}.npz"), "--stereo", str(data / "stereo.yaml"),
         "--right", str(scene / "right.png"), "--left", str(scene / "left.png"),
         "--seed", str(args.seed), "--json", "--overlay", str(out / "overlay.png")])
     if code:
         return code
-    est = json.loads(text)
+    _compare(scenes[first], json.loads(text), truth[scenes[first]])
+    scene = data / "scenes" / scenes[last]
+    code, text = _step(main, [
+        "identify", "--models", str(library), "--stereo", str(data / "stereo.yaml"),
+        "--right", str(scene / "right.png"), "--left", str(scene / "left.png"),
+        "--seed", str(args.seed), "--json"])
+    if code:
+        return code
+    answer = json.loads(text)
+    print(f"\nidentify in scene {scenes[last]}: {answer['model']} (truth {last}), score "
+          f"{answer['score']:.3f}, runner-up {answer['runner_up']['model']}")
+    print(f"\noverlay: {out / 'overlay.png'}, model previews: {library}/*.preview.png")
+    return 0
+
+
+def _compare(scene_id: str, est: dict[str, Any], facts: dict[str, Any]) -> None:
+    """Print the located pose beside the truth."""
+    import numpy as np
+
+    from photomodel.geometry import in_plane_angle_rad
+
     T_true = np.array(facts["T_cam1_model"])
     T_est = np.array(est["T_cam1_model"])
     th_true = float(np.rad2deg(in_plane_angle_rad(T_true)))
@@ -65,9 +87,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"estimated {_row(T_est[:3, 3], est['theta_deg'])}")
     print(f"true      {_row(T_true[:3, 3], th_true)}")
     print(f"error     {_row(err, est['theta_deg'] - th_true)}")
-    print(f"\nfound={est['found']} score={est['score']:.3f} in {est['seconds']:.2f} s; "
-          f"overlay: {out / 'overlay.png'}, model preview: {model.with_suffix('.preview.png')}")
-    return 0
+    print(f"found={est['found']} score={est['score']:.3f} in {est['seconds']:.2f} s")
 
 
 def _step(main, argv: list[str]) -> tuple[int, str]:  # type: ignore[no-untyped-def]
@@ -81,5 +101,5 @@ def _step(main, argv: list[str]) -> tuple[int, str]:  # type: ignore[no-untyped-
     return code, text
 
 
-def _row(xyz: np.ndarray, theta: float) -> str:
+def _row(xyz: Any, theta: float) -> str:
     return f"{xyz[0]:9.2f} {xyz[1]:9.2f} {xyz[2]:9.2f} {theta:11.2f}"

@@ -57,8 +57,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--min-score", type=float, default=None,
                    help="threshold applied (default: the stored, calibrated one)")
     g.add_argument("--calibrate", action="store_true",
-                   help="calibrate the threshold on this run's records and store it with the "
-                        "package (photomodel/locate/threshold.json)")
+                   help="calibrate the threshold on this run's records and write it to the "
+                        "user's threshold file (~/.config/photomodel/threshold.json, or "
+                        "$PHOTOMODEL_THRESHOLD), which locate and identify then read")
+    g.add_argument("--threshold-file", type=Path, default=None,
+                   help="with --calibrate: write the threshold here instead (e.g. a model "
+                        "library's threshold.json)")
     p.set_defaults(run=run)
 
 
@@ -185,7 +189,7 @@ def run_identify(args: argparse.Namespace) -> int:
 
         command = "photomodel " + " ".join(sys.argv[1:]) if sys.argv else ""
         threshold = calibrate_from_records(args.out, command=command)
-        path = save_threshold(threshold)
+        path = save_threshold(threshold, args.threshold_file)
         print(f"threshold min_score = {threshold.min_score:.4f} stored in {path}")
         summary = write_identify_report(args.out, config, min_score=threshold.min_score)
 

@@ -5,15 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 
-from photomodel.camera import load_stereo
-from photomodel.robot import (
-    HAND_EYE_METHODS,
-    available_link_sets,
-    calibrate_hand_eye,
-    load_arm,
-    load_hand_eye_pairs,
-    save_hand_eye,
-)
+from photomodel.robot._arm import available_link_sets
+
+HAND_EYE_METHODS = ("andreff", "daniilidis", "horaud", "park", "tsai")
+"""``cv2.calibrateHandEye``'s methods (``photomodel.robot.HAND_EYE_METHODS``'s names; a test
+checks that they agree), written here so that ``--help`` loads no robot code."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -30,7 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="hand-eye file to write (.yaml, .xml, .json)")
     p.add_argument("--stereo", default=None,
                    help="stereo calibration (camera 1's intrinsics), for chessboard images")
-    p.add_argument("--method", choices=sorted(HAND_EYE_METHODS), default="park",
+    p.add_argument("--method", choices=HAND_EYE_METHODS, default="park",
                    help="cv2.calibrateHandEye method (default park)")
     p.add_argument("--link-set", default=None, choices=available_link_sets(),
                    help="PA10-7C link lengths for joint-angle pairs")
@@ -39,6 +35,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from photomodel.camera import load_stereo
+    from photomodel.robot import calibrate_hand_eye, load_arm, load_hand_eye_pairs, save_hand_eye
+
     arm = load_arm("pa10-7c", args.link_set)
     camera = load_stereo(args.stereo).cam1 if args.stereo else None
     pairs = load_hand_eye_pairs(args.pairs, arm, camera)

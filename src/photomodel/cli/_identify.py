@@ -33,9 +33,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from photomodel.camera import load_stereo
     from photomodel.cli._models import warn_skipped
-    from photomodel.identify import IdentifyConfig, identify
+    from photomodel.identify import Identifier, IdentifyConfig
     from photomodel.image import read_color_image
     from photomodel.library import ModelLibrary
+    from photomodel.locate import threshold_path
 
     try:
         config = IdentifyConfig(min_score=args.min_score, max_candidates=args.max_candidates)
@@ -50,7 +51,9 @@ def run(args: argparse.Namespace) -> int:
     left = read_color_image(args.left)
     rig.cam1.check_image(right, str(args.right))
     rig.cam2.check_image(left, str(args.left))
-    result = identify(models, rig, right, left, config=config, rng=args.seed)
+    identifier = Identifier(models, rig, config=config,
+                            threshold=threshold_path(library=args.models))
+    result = identifier(right, left, rng=args.seed)
     if args.json:
         print(json.dumps(result.to_json_dict()))
         return 0

@@ -6,46 +6,42 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from photomodel.camera import load_stereo
-from photomodel.cli._progress import search_progress
 from photomodel.errors import InputError
-from photomodel.fitness import FITNESS_PRESETS
-from photomodel.image import read_color_image, write_image
-from photomodel.locate import (
-    DEFAULT_FITNESS,
-    DEFAULT_MIN_SCORE,
-    LocateResult,
-    draw_overlay,
-    locate,
-)
-from photomodel.model import load_model
-from photomodel.search import GAConfig, SearchSpace
+
+if TYPE_CHECKING:
+    from photomodel.locate import LocateResult
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+PAPER_FITNESSES = ("balanced", "paper")
+"""The fitnesses a paper method may search (``photomodel.fitness.FITNESS_PRESETS``' names; a
+test checks that they agree), written here so that ``--help`` loads no search code."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("locate", help="find a model's 6-DoF pose in a stereo pair",
                        description="Search the pose T_cam1_model of a photo-model in the images "
                                    "of the hand's two cameras (camera 1 = right = reference).")
-    p.add_argument("--model", required=True, type=Path, help="photo-model file (.npz)")
+    p.add_argument("--model", required=True, type=Path, help="photo-model file")
     p.add_argument("--stereo", required=True, type=Path, help="stereo calibration (K1, D1, ...)")
     p.add_argument("--right", required=True, type=Path, help="camera 1 (right) image")
     p.add_argument("--left", required=True, type=Path, help="camera 2 (left) image")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
-    p.add_argument("--optimizer", choices=("ga", "full", "rga", "cma", "de"), default="ga",
-                   help="the paper's binary GA (default) or full grid search")
-    p.add_argument("--fitness", choices=sorted([*FITNESS_PRESETS, "soft"]), default=DEFAULT_FITNESS,
-                   help=f"fitness function (default {DEFAULT_FITNESS})")
-    p.add_argument("--no-refine", action="store_true",
-                   help="skip the local refinement after the global search")
-    p.add_argument("--paper", action="store_true",
-                   help="the paper's method as read here: paper fitness, plain binary GA "
-                        "without restarts, no refinement")
-    p.add_argument("--generations", type=int, default=GAConfig().max_generations,
-                   help="GA: most generations")
+    p.add_argument("--method", choices=("default", "paper"), default=None,
+                   help="default: the soft fitness searched coarse to fine; paper: the paper's "
+                        "fitness and binary GA")
+    p.add_argument("--paper", action="store_true", help="the same as --method paper")
+    paper = p.add_argument_group("paper method options (with --method paper)")
+    paper.add_argument("--optimizer", choices=("ga", "full", "rga", "cma", "de"), default=None,
+                       help="the paper's binary GA (default), full grid search, or a "
+                            "comparison optimiser")
+    paper.add_argument("--fitness", choices=PAPER_FITNESSES, default=None,
+                       help="the paper's votes (default) or the balanced variant")
+    paper.add_argument("--refine", action="store_true",
+                       help="refine the global search's best pose locally")
+    paper.add_argument("--generations", type=int, default=None, help="GA: most generations")
     p.add_argument("--x-mm", type=float, nargs=2, default=(-255.0, 255.0), metavar=("LO", "HI"))
     p.add_argument("--y-mm", type=float, nargs=2, default=(-195.0, 195.0), metavar=("LO", "HI"))
     p.add_argument("--z-mm", type=float, nargs=2, default=(500.0, 900.0), metavar=("LO", "HI"))
@@ -54,39 +50,72 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="tilt range +-, from the table that faces the rig")
     p.add_argument("--min-score", type=float, default=None,
                    help="score in [0, 1] from which the garment counts as found (default: the "
-                        f"calibrated threshold with the soft fitness, {DEFAULT_MIN_SCORE} with "
-                        "the others)")
+                        "calibrated threshold; 0.5 with --method paper)")
+    p.add_argument("--threshold-file", type=Path, default=None,
+                   help="threshold file to read the default --min-score from")
     p.add_argument("--overlay", type=Path, default=None,
                    help="write a PNG with the found outline on both images")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    paper = args.paper or args.method == "paper"
+    if args.method == "default" and args.paper:
+        raise InputError("--paper", "contradicts --method default")
+    given = [f"--{k.replace('_', '-')}" for k in ("optimizer", "fitness", "generations")
+             if getattr(args, k) is not None] + (["--refine"] if args.refine else [])
+    if given and not paper:
+        raise InputError(given[0], "applies to --method paper only")
+    if args.generations is not None and args.generations < 1:
+        raise InputError("--generations", f"expected a positive count, got {args.generations}")
+    if args.min_score is not None and not 0.0 <= args.min_score <= 1.0:
+        raise InputError("--min-score", f"expected a score in [0, 1], got {args.min_score}")
     if args.overlay is not None and args.overlay.suffix.lower() not in IMAGE_SUFFIXES:
         raise InputError(args.overlay, f"unknown image type; use one of {IMAGE_SUFFIXES}")
-    if args.generations < 1:
-        raise InputError("--generations", f"expected a positive count, got {args.generations}")
-    try:
-        ga = (GAConfig.paper if args.paper else GAConfig)(max_generations=args.generations)
-    except ValueError as exc:
-        raise InputError("--generations", str(exc)) from None
+    from photomodel.camera import load_stereo
+    from photomodel.image import read_color_image
+    from photomodel.model import load_model
+
     model = load_model(args.model)
     rig = load_stereo(args.stereo)
+    right = read_color_image(args.right)
+    left = read_color_image(args.left)
+    rig.cam1.check_image(right, str(args.right))
+    rig.cam2.check_image(left, str(args.left))
+
+    from photomodel.locate import Locator, PaperMethod
+    from photomodel.search import GAConfig, SearchSpace
+
     try:    # the tilt is measured from the table that faces the rig
         space = SearchSpace.from_ranges(tuple(args.x_mm), tuple(args.y_mm), tuple(args.z_mm),
                                         args.theta_deg, args.tilt_deg, rig.R_cam1_facing)
     except ValueError as exc:
         raise InputError("search space", str(exc)) from None
-    right = read_color_image(args.right)
-    left = read_color_image(args.left)
-    rig.cam1.check_image(right, str(args.right))
-    rig.cam2.check_image(left, str(args.left))
-    with search_progress(f"locating {model.name}", enabled=sys.stderr.isatty()) as progress:
-        result = locate(model, rig, right, left, optimizer=args.optimizer,
-                        fitness="paper" if args.paper else args.fitness,
-                        refine=not (args.paper or args.no_refine), rng=args.seed, space=space,
-                        min_score=args.min_score, ga_config=ga, progress=progress)
+    method: str | PaperMethod = "default"
+    if paper:
+        cap = {} if args.generations is None else {"max_generations": args.generations}
+        try:
+            method = PaperMethod(fitness=args.fitness or "paper",
+                                 optimizer=args.optimizer or "ga", refine=args.refine,
+                                 ga=GAConfig.paper(**cap))
+        except ValueError as exc:
+            raise InputError("--method paper", str(exc)) from None
+    locator = Locator(model, rig, space, method,  # type: ignore[arg-type]
+                      min_score=args.min_score, threshold=args.threshold_file)
+    if paper and sys.stderr.isatty():
+        from photomodel.cli._progress import search_progress
+        from photomodel.locate import locate
+
+        with search_progress(f"locating {model.name}", enabled=True) as progress:
+            result = locate(model, rig, right, left, method=method,  # type: ignore[arg-type]
+                            rng=args.seed, space=space, min_score=locator.min_score,
+                            progress=progress)
+    else:
+        result = locator(right, left, rng=args.seed)
     if args.overlay is not None:
+        from photomodel.image import write_image
+        from photomodel.locate import draw_overlay
+
         caption = (f"{model.name}: {'found' if result.found else 'NOT found'}  score "
                    f"{result.score:.2f}  xyz {format_xyz(result)} mm  theta "
                    f"{result.theta_deg:.2f} deg")

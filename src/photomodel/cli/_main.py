@@ -23,6 +23,7 @@ from photomodel.cli import (
     _models,
     _pick,
     _simulate,
+    _warmup,
 )
 from photomodel.errors import PhotomodelError
 
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     _handeye.add_parser(sub)
     _pick.add_parser(sub)
     _cell.add_parser(sub)
+    _warmup.add_parser(sub)
     return parser
 
 

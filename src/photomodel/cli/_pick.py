@@ -4,49 +4,43 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from photomodel.camera import load_stereo
 from photomodel.errors import InputError
-from photomodel.image import read_color_image
-from photomodel.model import load_model
-from photomodel.robot import (
-    CellLayout,
-    Gripper,
-    PickSettings,
-    animate_plan,
-    available_link_sets,
-    check_animation_path,
-    grasp_point_from_photo_px,
-    hand_pose_from_xyz_rpy,
-    joints_for_hand_pose,
-    load_arm,
-    load_hand_eye,
-    pick,
-    write_json_atomic,
-)
+from photomodel.robot._arm import available_link_sets
+
+if TYPE_CHECKING:
+    from photomodel.robot import CellLayout, PickSettings
+
+BOX_CENTRE_MM = (150.0, -600.0, 0.0)
+"""Defaults of the layout options (``CellLayout``'s, ``Gripper``'s and ``PickSettings``'s;
+a test checks that they agree), written here so that ``--help`` loads no robot code."""
+TCP_MM = 150.0
+APPROACH_MM = 100.0
+RETREAT_MM = 150.0
 
 
 def add_layout_options(p: argparse.ArgumentParser) -> None:
     """Options of the cell's layout and the gripper, shared by ``pick`` and ``cell``."""
     p.add_argument("--link-set", default=None, choices=available_link_sets(),
                    help="PA10-7C link lengths (default 317-450-480-70)")
-    p.add_argument("--box-mm", type=float, nargs=3, default=CellLayout().box_centre_mm,
+    p.add_argument("--box-mm", type=float, nargs=3, default=BOX_CENTRE_MM,
                    metavar=("X", "Y", "Z"), help="centre of the box floor, base frame")
     p.add_argument("--box-yaw-deg", type=float, default=0.0, help="box rotation about base z")
     p.add_argument("--box-size-mm", type=float, default=220.0, help="inner side of the box")
-    p.add_argument("--tcp-mm", type=float, default=Gripper().tcp_mm,
+    p.add_argument("--tcp-mm", type=float, default=TCP_MM,
                    help="gripper closing point from the flange along the hand's z")
-    p.add_argument("--approach-mm", type=float, default=PickSettings().approach_mm,
+    p.add_argument("--approach-mm", type=float, default=APPROACH_MM,
                    help="pre-grasp height above the grasp point")
-    p.add_argument("--retreat-mm", type=float, default=PickSettings().retreat_mm,
+    p.add_argument("--retreat-mm", type=float, default=RETREAT_MM,
                    help="lift after grasping")
 
 
 def layout_and_settings(args: argparse.Namespace,
                         grasp_mm: tuple[float, float] = (0.0, 0.0)
                         ) -> tuple[CellLayout, PickSettings]:
+    from photomodel.robot import CellLayout, Gripper, PickSettings
+
     try:
         layout = CellLayout(box_centre_mm=tuple(args.box_mm), box_yaw_deg=args.box_yaw_deg,
                             box_size_mm=args.box_size_mm)
@@ -91,6 +85,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from photomodel.camera import load_stereo
+    from photomodel.image import read_color_image
+    from photomodel.model import load_model
+    from photomodel.robot import (
+        animate_plan,
+        check_animation_path,
+        grasp_point_from_photo_px,
+        hand_pose_from_xyz_rpy,
+        joints_for_hand_pose,
+        load_arm,
+        load_hand_eye,
+        pick,
+        write_json_atomic,
+    )
+
     animate = check_animation_path(args.animate) if args.animate else None
     arm = load_arm("pa10-7c", args.link_set)
     if args.joints_deg is not None:

@@ -4,42 +4,45 @@ the paper's statistics (Table 1) and figures, run locally or on a Dask cluster, 
 The figures (``photomodel.experiments._report``, matplotlib) load only when a report is written.
 """
 
-from photomodel.experiments._identify import (
-    IDENTIFY_COLUMNS,
-    IdentifyExperimentConfig,
-    IdentifyTrial,
-    calibrate_from_records,
-    plan_identify_trials,
-    read_identify_records,
-    run_identify_experiment,
-    run_identify_trial,
-    summarise_identify,
-    write_identify_report,
-)
-from photomodel.experiments._records import (
-    COLUMNS,
-    append_records,
-    done_trial_ids,
-    read_records,
-)
-from photomodel.experiments._run import run_experiment, run_metadata
-from photomodel.experiments._stats import (
-    PAPER_TABLE1,
-    AxisError,
-    ErrorTable,
-    error_table,
-    error_tables,
-    garment_summary_markdown,
-    table1_markdown,
-)
-from photomodel.experiments._study import write_experiment_report
-from photomodel.experiments._trials import (
-    ExperimentConfig,
-    Trial,
-    plan_trials,
-    run_trial,
-    trial_inputs,
-    trial_record,
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_identify": [
+            "IDENTIFY_COLUMNS",
+            "IdentifyExperimentConfig",
+            "IdentifyTrial",
+            "calibrate_from_records",
+            "plan_identify_trials",
+            "read_identify_records",
+            "run_identify_experiment",
+            "run_identify_trial",
+            "summarise_identify",
+            "write_identify_report",
+        ],
+        "_records": ["COLUMNS", "append_records", "done_trial_ids", "read_records"],
+        "_run": ["run_experiment", "run_metadata"],
+        "_stats": [
+            "PAPER_TABLE1",
+            "AxisError",
+            "ErrorTable",
+            "error_table",
+            "error_tables",
+            "garment_summary_markdown",
+            "table1_markdown",
+        ],
+        "_study": ["write_experiment_report"],
+        "_trials": [
+            "ExperimentConfig",
+            "Trial",
+            "plan_trials",
+            "run_trial",
+            "trial_inputs",
+            "trial_locator",
+            "trial_record",
+        ],
+    },
 )
 
 __all__ = [
@@ -70,6 +73,7 @@ __all__ = [
     "summarise_identify",
     "table1_markdown",
     "trial_inputs",
+    "trial_locator",
     "trial_record",
     "write_identify_report",
     "write_experiment_report",

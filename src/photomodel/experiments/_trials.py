@@ -21,7 +21,7 @@ import numpy as np
 from photomodel.camera import StereoRig, load_camera, load_distance_mm, load_stereo
 from photomodel.geometry import in_plane_angle_rad
 from photomodel.image import read_color_image
-from photomodel.locate import LocateResult, locate
+from photomodel.locate import LocateResult, Locator, PaperMethod, locate
 from photomodel.model import PhotoModel, build_photo_model
 from photomodel.search import GAConfig
 
@@ -32,6 +32,7 @@ __all__ = [
     "plan_trials",
     "run_trial",
     "trial_inputs",
+    "trial_locator",
     "trial_record",
 ]
 
@@ -62,9 +63,9 @@ class ExperimentConfig:
     max_generations : int, optional
         Cap on the GA's generations per run (default: the GA's own); for quick runs.
     dataset : str, optional
-        A dataset directory (DESIGN.md layout) to evaluate instead of simulating: every scene of
-        its ``truth.json`` with a model is a trial (``garments``/``conditions``/``trials``
-        then filter nothing).
+        A dataset directory (layout in docs/contracts.md) to evaluate instead of simulating:
+        every scene of its ``truth.json`` with a model is a trial (``garments``/``conditions``/
+        ``trials`` then filter nothing).
     """
 
     garments: tuple[str, ...] = ()
@@ -127,13 +128,8 @@ def _truth(dataset: str) -> dict[str, Any]:
 
 @lru_cache(maxsize=64)
 def _model(config: ExperimentConfig, garment: str) -> PhotoModel:
-    """The garment's photo-model, built from its model photos (simulated or the dataset's).
-
-    Kept for 64 (config, garment) pairs: the locate benchmark's three lenses give 36 models,
-    and a model object also keeps what ``locate`` built for it (per-level samples, scan
-    kernels); with room for 32 the benchmark's cyclic use evicted every model before its
-    next use, and the first condition timed with each lens paid that again (median 265-289
-    against 115 ms)."""
+    """The garment's photo-model, built from its model photos (simulated or the dataset's);
+    kept for 64 (config, garment) pairs (the locate benchmark's three lenses give 36)."""
     if config.dataset is not None:
         root = Path(config.dataset)
         camera = load_camera(root / "model_camera.yaml")
@@ -203,12 +199,25 @@ def _locate(config: ExperimentConfig, trial: Trial, model: PhotoModel, rig: Ster
             right: np.ndarray, left: np.ndarray) -> LocateResult:
     from photomodel.sim import scene_rng
 
+    rng = scene_rng(config.seed, "search", trial.trial_id)
+    if config.fitness == "soft" and not config.paper:
+        locator = trial_locator(config, trial.garment)
+        if locator.model is not model:   # not the experiment's own model
+            locator = Locator(model, rig)
+        return locator(right, left, rng=rng)
     cap = {} if config.max_generations is None else {"max_generations": config.max_generations}
     ga = GAConfig.paper(**cap) if config.paper else GAConfig(**cap)  # type: ignore[arg-type]
-    return locate(model, rig, right, left, optimizer=config.optimizer,  # type: ignore[arg-type]
-                  fitness="paper" if config.paper else config.fitness,
-                  refine=config.refine and not config.paper, ga_config=ga,
-                  rng=scene_rng(config.seed, "search", trial.trial_id))
+    method = PaperMethod(fitness="paper" if config.paper else config.fitness,
+                         optimizer=config.optimizer,  # type: ignore[arg-type]
+                         refine=config.refine and not config.paper, ga=ga)
+    return locate(model, rig, right, left, method=method, rng=rng)
+
+
+@lru_cache(maxsize=64)
+def trial_locator(config: ExperimentConfig, garment: str) -> Locator:
+    """A :class:`~photomodel.Locator` (default method) of the garment's model
+    (:func:`trial_inputs`'s) with the experiment's rig, kept for its next trials."""
+    return Locator(_model(config, garment), _rig(config))
 
 
 def trial_record(trial: Trial, result: LocateResult, T_true: np.ndarray,

@@ -1,21 +1,23 @@
 """Fitness functions over whole pose populations: the paper's eq. (9) with hue matching, and
 the ``soft`` fitness (graded log-opponent colour, sub-pixel, over a feature pyramid)."""
 
-from photomodel.fitness._base import Fitness
-from photomodel.fitness._edges import NO_SLACK, ScoreSlack, ScoreTerms, edge_evidence, score_terms
-from photomodel.fitness._hue import HueMatch, hue_code_image, hue_codes, hue_codes_match
-from photomodel.fitness._light import light_offset_candidates
-from photomodel.fitness._paper import FITNESS_PRESETS, PaperFitness, PaperVotes, make_fitness
-from photomodel.fitness._protocols import KernelFitness, KernelNormalEquations
-from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
-from photomodel.fitness._scan import (
-    ScanConfig,
-    ScanResult,
-    prepare_scan,
-    relight_scan,
-    scan_flat_poses,
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_base": ["Fitness"],
+        "_edges": ["NO_SLACK", "ScoreSlack", "ScoreTerms", "edge_evidence", "score_terms"],
+        "_hue": ["HueMatch", "hue_code_image", "hue_codes", "hue_codes_match"],
+        "_light": ["light_offset_candidates"],
+        "_paper": ["FITNESS_PRESETS", "PaperFitness", "PaperVotes", "make_fitness"],
+        "_prepared": ["PreparedModel", "as_prepared"],
+        "_protocols": ["KernelFitness", "KernelNormalEquations"],
+        "_samples": ["ModelSamples", "SampleSpacing", "model_samples"],
+        "_scan": ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses"],
+        "_soft": ["SoftFitness", "SoftMatch", "StereoFeatures", "level_spacing"],
+    },
 )
-from photomodel.fitness._soft import SoftFitness, SoftMatch, StereoFeatures, level_spacing
 
 __all__ = [
     "FITNESS_PRESETS",
@@ -27,6 +29,7 @@ __all__ = [
     "ModelSamples",
     "PaperFitness",
     "PaperVotes",
+    "PreparedModel",
     "SampleSpacing",
     "ScanConfig",
     "ScanResult",
@@ -42,6 +45,7 @@ __all__ = [
     "level_spacing",
     "light_offset_candidates",
     "make_fitness",
+    "as_prepared",
     "model_samples",
     "prepare_scan",
     "relight_scan",

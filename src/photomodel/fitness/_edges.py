@@ -24,11 +24,10 @@ slack** (:class:`ScoreSlack`): the model is cut into square cells (20 mm) and ea
 samples may slide in the model plane by up to 1 mm (steps of 0.5 mm), on its own, to where
 its share of the score is highest. A folded garment is not a rigid sheet: the cloth beside a
 fold is pulled towards its crest by a few millimetres, so a narrow stripe or an outline that
-the pose and strain put right on one side of a fold lies a stripe's width off on the other.
-Rigidly scored, a wrinkled striped T-shirt at a good pose (1-2 mm) scored 0.33-0.36 and
-was not found; with the slack 0.47-0.52. The slack lifts a wrong model's best score too, by
-0.01-0.03 on scenes without it (the threshold is calibrated on the slack score). The pose
-itself stays the rigid (strained) one; the slack only measures how well it explains the
+the pose and strain put right on one side of a fold lies a stripe's width off on the other,
+and a rigid score would reject a wrinkled striped garment at a good pose. The slack lifts a
+wrong model's best score a little too, so the threshold is calibrated on the slack score.
+The pose itself stays the rigid (strained) one; the slack only measures how well it explains the
 images.
 """
 
@@ -40,7 +39,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel._owned import owned
 from photomodel.fitness._samples import ModelSamples
 from photomodel.fitness._soft import SoftFitness
 
@@ -119,21 +117,17 @@ def _cell_labels(points_mm: NDArray[np.float64], cell_mm: float
     return labels.reshape(-1), int(labels.max()) + 1
 
 
-_CELLS: dict[int, dict[float, tuple[NDArray[np.intp], NDArray[np.intp], int]]] = {}
-
-
 def _sample_cells(samples: ModelSamples, cell_mm: float
                   ) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
     """The cells of ``samples``' inner and band points (:func:`_cell_labels`, C-contiguous)
-    and their number, kept per samples object (while it lives): a score asks for the same
-    ones at every pose (0.5 ms a call)."""
-    kept = owned(_CELLS, samples, dict)
-    if cell_mm not in kept:
+    and their number, kept with the samples: a score asks for the same ones at every pose."""
+    def make() -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
         labels, cells = _cell_labels(np.concatenate([samples.p_in, samples.p_out]), cell_mm)
         n_in = len(samples.p_in)
-        kept[cell_mm] = (np.ascontiguousarray(labels[:n_in]),
-                         np.ascontiguousarray(labels[n_in:]), cells)
-    return kept[cell_mm]
+        return (np.ascontiguousarray(labels[:n_in]), np.ascontiguousarray(labels[n_in:]),
+                cells)
+
+    return samples.kept.get(("cells", cell_mm), make)
 
 
 def score_terms(fitness: SoftFitness, A_cam1_model: NDArray[np.float64],

@@ -4,22 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, prange, types
+from numba import prange, types
 from numba.extending import intrinsic
+
+from photomodel._jit import njit
 
 _EXP_NEG_MAX = 60.0
 """Largest argument :func:`exp_neg` evaluates (exp(-60) = 9e-27: no agreement counts)."""
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def exp_neg(y):  # pragma: no cover - compiled
     """``exp(-y)`` for ``y >= 0`` (arguments above 60 give exp(-60)), to 4e-12 relative for
     ``y < 30`` and 2e-9 below 60: ``exp(-y / 256)`` by its degree-8 Taylor polynomial,
     squared eight times.
 
     Plain arithmetic, so a loop of it vectorises; numba without Intel's SVML calls the
-    scalar library ``exp`` once per element, which made the ``soft`` fitness's light-offset
-    passes (six over the inner samples a camera) most of its time.
+    scalar library ``exp`` once per element, and the ``soft`` fitness's light-offset passes
+    (six over the inner samples a camera) are mostly exponentials.
     """
     u = min(y, _EXP_NEG_MAX) * (1.0 / 256.0)
     p = 1.0 + u * (-1.0 + u * (1.0 / 2.0 + u * (-1.0 / 6.0 + u * (1.0 / 24.0 + u * (
@@ -62,7 +64,7 @@ def _from_bits(typingctx, i):  # type: ignore[no-untyped-def]
     return types.float64(types.int64), codegen
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def mix_logs(t, work):  # pragma: no cover - compiled
     """``work[2] = t exp(w)`` and ``work[3] = log(a + t exp(w))`` elementwise, for ``a > 0``
     in ``work[0]`` and ``w`` in ``work[1]`` (``work`` (4, n); ``w`` clipped to +-700): the
@@ -72,8 +74,7 @@ def mix_logs(t, work):  # pragma: no cover - compiled
     this loop is plain arithmetic and integer operations on the floats' bits (``2**k`` and
     the exponent through them, Taylor's series of ``exp`` and ``atanh``'s of ``log``), so it
     vectorises. Safe under ``fastmath``, which a caller's passes apply to what they inline
-    whatever this function's own flags: no step relies on the order of additions (a
-    rounding constant added and taken off again did, and was folded away).
+    whatever this function's own flags: no step relies on the order of additions.
     """
     for i in range(work.shape[1]):
         w = min(max(work[1, i], -700.0), 700.0)
@@ -98,21 +99,20 @@ def mix_logs(t, work):  # pragma: no cover - compiled
         work[3, i] = e * _LN2_HI + (2.0 * s * q + e * _LN2_LO)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def lens_constants(K, D):  # pragma: no cover - compiled
     """A camera's matrix ``K`` (3, 3) and 12 distortion terms ``D`` as one tuple of floats
     ``(fx, skew, cx, fy, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4)``.
 
     A loop over points that reads ``K`` and ``D`` through arrays while it writes several
     output rows loads them again for every point (the compiler cannot tell that the rows
-    it writes do not overlap them) and, with more than a few rows, does not vectorise:
-    :func:`plane_pixel_jacobians` took 85 us for 2338 points, with the constants read once
-    into this tuple 15 us."""
+    it writes do not overlap them) and, with more than a few rows, does not vectorise; read
+    once into this tuple before the loop, they stay in registers."""
     return (K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2], D[0], D[1], D[2], D[3], D[4], D[5],
             D[6], D[7], D[8], D[9], D[10], D[11])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def plane_constants(R, t):  # pragma: no cover - compiled
     """The map of model-plane points ``(x, y)`` into a camera at pose ``(R, t)`` as one tuple
     ``(R00, R01, R10, R11, R20, R21, t0, t1, t2)`` (read once before a loop over points,
@@ -120,7 +120,7 @@ def plane_constants(R, t):  # pragma: no cover - compiled
     return (R[0, 0], R[0, 1], R[1, 0], R[1, 1], R[2, 0], R[2, 1], t[0], t[1], t[2])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def project_lens(X, Y, Z, lens):  # pragma: no cover - compiled
     """:func:`_project` through the constants ``lens`` (:func:`lens_constants`)."""
     fx, skew, cx, fy, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = lens
@@ -138,7 +138,7 @@ def project_lens(X, Y, Z, lens):  # pragma: no cover - compiled
     return (u if front else -1.0e9), (v if front else -1.0e9)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
     """Pixel (u, v) of the camera point (X, Y, Z) through ``K`` and the 12 rational,
     tangential and thin-prism terms ``D``; (-1e9, -1e9) behind the camera. Without a branch
@@ -146,7 +146,7 @@ def _project(X, Y, Z, K, D):  # pragma: no cover - compiled
     return project_lens(X, Y, Z, lens_constants(K, D))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def projection_jacobian_lens(X, Y, Z, lens):  # pragma: no cover - compiled
     """:func:`_projection_jacobian` through the constants ``lens`` (:func:`lens_constants`)."""
     fx, skew, cx, fy, cy, k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = lens
@@ -179,7 +179,7 @@ def projection_jacobian_lens(X, Y, Z, lens):  # pragma: no cover - compiled
             -(u_x * x + u_y * y) * iz, v_x * iz, v_y * iz, -(v_x * x + v_y * y) * iz)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _projection_jacobian(X, Y, Z, K, D):  # pragma: no cover - compiled
     """``_project`` of (X, Y, Z) and d(u, v) / d(X, Y, Z), by rows: (u, v, du/dX, du/dY,
     du/dZ, dv/dX, dv/dY, dv/dZ); the same rational radial, tangential and thin-prism terms,
@@ -187,7 +187,7 @@ def _projection_jacobian(X, Y, Z, K, D):  # pragma: no cover - compiled
     return projection_jacobian_lens(X, Y, Z, lens_constants(K, D))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def plane_point(plane, x, y):  # pragma: no cover - compiled
     """Camera point (X, Y, Z) of the model-plane point ``(x, y)`` through the map ``plane``
     (:func:`plane_constants`)."""
@@ -195,7 +195,7 @@ def plane_point(plane, x, y):  # pragma: no cover - compiled
     return r00 * x + r01 * y + t0, r10 * x + r11 * y + t1, r20 * x + r21 * y + t2
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
     """Pixel (u, v) where the model-plane point ``(x, y)`` lies at pose ``(R, t)`` through
     camera ``K``, ``D`` (``_project``)."""
@@ -203,14 +203,12 @@ def plane_pixel(R, t, K, D, x, y):  # pragma: no cover - compiled
     return project_lens(X, Y, Z, lens_constants(K, D))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def plane_pixels(R, t, K, D, xy, out):  # pragma: no cover - compiled
     """``out`` (2, N) = the pixels (u, v) of the model-plane points ``xy`` (2, N: their x
     and y by row) at pose ``(R, t)`` through ``K``, ``D`` (:func:`plane_pixel`; -1e9 behind
-    the camera). One loop that vectorises, before the points' bilinear samples: a fifth of
-    the ``soft`` fitness's time went to projecting one point at a time. The coordinates by
-    row let it load four points' x (and y) at once; from points by row (N, 3) it gathered
-    them, and took 3.5x as long (2338 points: 36 us against 10 us)."""
+    the camera). One loop that vectorises, before the points' bilinear samples; the
+    coordinates by row let it load four points' x (and y) at once."""
     plane = plane_constants(R, t)
     lens = lens_constants(K, D)
     for j in range(xy.shape[1]):
@@ -218,7 +216,7 @@ def plane_pixels(R, t, K, D, xy, out):  # pragma: no cover - compiled
         out[0, j], out[1, j] = project_lens(X, Y, Z, lens)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def plane_pixel_jacobians(R, t, K, D, xy, out):  # pragma: no cover - compiled
     """``out`` (8, N) = :func:`_projection_jacobian`'s rows for the model-plane points ``xy``
     (2, N: x and y by row) at pose ``(R, t)``: the pixel and its derivative along the camera
@@ -232,7 +230,7 @@ def plane_pixel_jacobians(R, t, K, D, xy, out):  # pragma: no cover - compiled
          out[7, j]) = projection_jacobian_lens(X, Y, Z, lens)
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _matches(code_img, sat_img, code_model, min_sat, thr):  # pragma: no cover - compiled
     if code_model < 0.0:
         return code_img < 0.0
@@ -244,7 +242,7 @@ def _matches(code_img, sat_img, code_model, min_sat, thr):  # pragma: no cover -
     return d <= thr
 
 
-@njit(cache=True)
+@njit
 def _count(R, t, K, D, pts, codes, min_sat, img, sat, thr):  # pragma: no cover - compiled
     h, w = img.shape
     n = 0
@@ -263,7 +261,7 @@ def _count(R, t, K, D, pts, codes, min_sat, img, sat, thr):  # pragma: no cover 
     return n
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def camera2_pose(R1, t1, R21, T21):  # pragma: no cover - compiled
     """Model pose in camera 2, (R2, t2), from the pose (R1, t1) in camera 1 and the rig's
     ``X2 = R21 X1 + T21``."""
@@ -277,7 +275,7 @@ def camera2_pose(R1, t1, R21, T21):  # pragma: no cover - compiled
     return R2, t2
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def paper_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, c_in, s_in, p_out, c_out,
                          s_out, img1, sat1, img2, sat2, thr, vote_in, vote_out, out_f, out_counts
                          ):  # pragma: no cover - compiled

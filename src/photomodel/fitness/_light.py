@@ -4,7 +4,7 @@ Under another lamp or exposure every log-opponent feature of a scene moves by ab
 offset ``o = (o_l, o_a, o_b)`` (see :mod:`photomodel.image._features`). The ``soft`` fitness
 takes the offset out per pose; the scan (:func:`~photomodel.fitness.scan_flat_poses`) compares
 colours as they are, and under a warm lamp or in dim light its peaks are noise, so the search
-fell back on a GA (about 0.25 s a stereo pair, and a GA can miss a print's narrow peak).
+would need a GA, which is slower and can miss a print's narrow peak.
 
 This module guesses the offset from where the garment's colours are, not from a grey card:
 a histogram of the model's inner colours is correlated with the *presence* of colours in the

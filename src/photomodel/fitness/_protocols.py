@@ -42,14 +42,14 @@ def kernel_values(T: NDArray[np.float64], lanes: int, args: tuple[Any, ...]
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The fitness (P,) of maps ``T`` (P, 4, 4) of model points into camera 1, on ``lanes``
     threads, and the light offsets (P, 2, 3) it found for each pose (those of
-    ``ResidualFitness.last_offsets``), of the kernel fitness whose :meth:`KernelFitness.
+    ``TransformFitness.last_offsets``), of the kernel fitness whose :meth:`KernelFitness.
     kernel_args` are ``args``.
 
     For numba code only: numba resolves it by the type of ``args`` to the implementation the
     fitness registers with ``numba.extending.overload`` (the ``soft`` fitness's in
     ``fitness/_soft_kernels.py``). The loops take no function arguments: numba's cache
     failed to save functions with one when two processes compiled them at once
-    (``ReferenceError: underlying object has vanished``, numba issue 9348)."""
+    (``ReferenceError: underlying object has vanished``, numba/numba#9348)."""
     raise NotImplementedError("kernel_values runs inside numba code only")
 
 

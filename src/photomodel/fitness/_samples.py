@@ -28,7 +28,7 @@ are dropped by a distance-transform check.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import cv2
@@ -37,8 +37,8 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
-from photomodel._owned import owned
 from photomodel.camera import PinholeCamera
+from photomodel.fitness._prepared import Kept, PreparedModel, as_prepared
 from photomodel.image._features import linear_intensity, log_opponent
 from photomodel.model import PhotoModel
 
@@ -64,10 +64,8 @@ class SampleSpacing:
         Extra distance of the outer rings beyond ``ring_mm`` (default 0). The first outer
         ring sees a share of the garment's blurred edge, so its vote against the garment
         falls as the model grows: it pulls a low-contrast garment's model larger, i.e.
-        nearer (the grey sock on the grey table: -1.2 mm in depth, paper light). A 0.5 mm
-        gap took that to -0.07 mm (12 scenes) and dim light's -1.5 to -0.2 mm, but under a
-        1.8 px camera blur the navy trousers' depth error went from +5.6 to +8.9 mm and the
-        white towel's from +1.6 to +2.9 mm (6 scenes each), so it is not the default.
+        nearer. A gap corrects that in sharp images but moves blurred scenes' depths
+        further off, so it is not the default.
     blur_mm : float
         Gaussian blur of the model photo's log-opponent features before its colours are
         sampled, mm on the garment: as much as the scene's feature images of that level
@@ -109,7 +107,8 @@ class ModelSamples:
     ``palette`` (K, 3): the garment's main colours (k-means of ``f_in``, K <= 6, computed
     on first use); ``table_out`` (N,): for each inner-ring point the band point of the
     outermost ring beside it (what the table looks like there), -1 for interior points;
-    ``lin_in`` (N, 3): ``f_in`` as linear intensities (computed on first use).
+    ``lin_in`` (N, 3): ``f_in`` as linear intensities (computed on first use);
+    ``kept``: what the fitness and scan kernels derive from these samples, kept with them.
     """
 
     p_in: NDArray[np.float64]
@@ -117,6 +116,7 @@ class ModelSamples:
     p_out: NDArray[np.float64]
     f_out: NDArray[np.float64]
     table_out: NDArray[np.intp] | None = None
+    kept: Kept = field(default_factory=Kept, init=False, repr=False, compare=False)
 
     @cached_property
     def palette(self) -> NDArray[np.float64]:
@@ -166,26 +166,22 @@ def _lookup(image: NDArray[np.float32], uv: NDArray[np.float64]) -> NDArray[np.f
     return out.reshape(len(uv), -1)
 
 
-_CACHE: dict[int, dict[SampleSpacing, ModelSamples | _Geometry]] = {}
-
-
-def model_samples(model: PhotoModel, spacing: SampleSpacing) -> ModelSamples:
+def model_samples(model: PhotoModel | PreparedModel, spacing: SampleSpacing) -> ModelSamples:
     """Sample points and colours of ``model`` at ``spacing`` (see the module docstring).
 
-    Cached per model object (while it lives) and spacing: a library of models is sampled
-    once, not once per stereo pair. The points are shared by every blur of one spacing.
+    Kept in a :class:`~photomodel.fitness.PreparedModel` (per spacing; the points are shared
+    by every blur of one spacing), so a prepared model is sampled once, not once per stereo
+    pair.
     """
-    per_model = owned(_CACHE, model, dict)
-    if spacing not in per_model:
-        shape = spacing.geometry
-        if shape not in per_model:
-            per_model[shape] = _geometry(model, shape)
-        geometry = per_model[shape]
-        assert isinstance(geometry, _Geometry)
-        per_model[spacing] = _coloured(model, geometry, spacing)
-    samples = per_model[spacing]
-    assert isinstance(samples, ModelSamples)
-    return samples
+    prepared = as_prepared(model)
+    shape = spacing.geometry
+
+    def coloured() -> ModelSamples:
+        geometry = prepared.kept.get(("geometry", shape),
+                                     lambda: _geometry(prepared.model, shape))
+        return _coloured(prepared.model, geometry, spacing)
+
+    return prepared.kept.get(("samples", spacing), coloured)
 
 
 def _lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -17,16 +17,13 @@ it for every pixel at once by FFT, on a grid of angles and depths, with
 * **one light offset per scan** (by default none: the garment as lit at the model
   station). Under another lamp or exposure the own colours agree nowhere and the scan is
   not trusted; :func:`relight_scan` then scans again with the offsets the scene's colours
-  suggest (:mod:`photomodel.fitness._light`). On 60 warm-light and 60 dim scenes (12
-  garments, trials 0-4) every relit scan was trusted, and ``locate`` found 120 of 120
-  without its GA (119 with it, one cat-print towel whose peak is 15 mm wide missed twice),
-  in 0.32 s instead of 0.54 s a stereo pair on one thread;
+  suggest (:mod:`photomodel.fitness._light`);
 * **one kernel set for a few depths**: a garment's image at depth ``z`` is its image at
   ``z_ref`` scaled by ``z_ref / z``, so instead of a kernel per depth, each depth's
   agreement images are resampled onto a pinhole grid whose pixels are as large on the
   garment as camera 1's at ``z_ref``, the farthest depth of its group
   (``ScanConfig.depths_per_kernel``). The kernels' spectra depend on the model, the camera
-  and the search box only, and are kept per model object for the next stereo pair.
+  and the search box only, and are kept in the PreparedModel for the next stereo pair.
 
 Every pixel, angle step and depth step is visited, so a garment whose fitness peak is narrow
 (a small garment, half covered) is not missed as a GA misses it. The peaks, distinct in
@@ -45,12 +42,13 @@ import numba
 import numpy as np
 import rocket_fft  # noqa: F401  (scipy.fft inside numba: registers its overloads)
 import scipy.fft
-from numba import njit, prange
+from numba import prange
 from numpy.typing import ArrayLike, NDArray
 
-from photomodel._owned import owned
+from photomodel._jit import njit
 from photomodel.camera import StereoRig
 from photomodel.fitness._light import light_offset_candidates
+from photomodel.fitness._prepared import PreparedModel, as_prepared
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._soft import SoftFitness, StereoFeatures, level_spacing
 from photomodel.geometry import facing_pose_vectors
@@ -78,43 +76,30 @@ class ScanConfig:
         a garment's image little (the peaks of neighbouring depths lie on one camera ray);
         the refinement after the scan walks along the ray. The grid's last depth can lie
         beyond the box (925 mm for 500-900 mm); it sets its group's kernel scale and is not
-        scanned, since every peak it gave lay outside the box and was dropped (1/9 of the
-        scan). Tried: 0.12 with 2 depths a kernel set (6 depths): 0.92x the median time on
-        216 scenes with the same successes, but in the 12 x 1000 study one polka-dot skirt
-        trial of 12000 ended 13.6 mm off (found, fitness 0.70 against 0.95 at the truth);
-        with 3 depths a set the grey sock under the gripper lost its scan peak.
+        scanned (its peaks would lie outside the box).
     depths_per_kernel : int
         Consecutive depths that share one set of kernels (the group's farthest depth's;
         nearer depths are scanned at up to ``(1 + z_step)**(depths_per_kernel - 1)``
-        coarser grids). The kernels' Fourier transforms were half the scan's time. With 3
-        (9 depths, 3 sets): 26-31 ms a scan on one thread with the sets kept from an earlier
-        scan, 41-47 ms without, against 85-104 ms with a set per depth (paper scenes of
-        No.1, No.3, No.6, No.11). With one set for all 9 depths, the coarsest grid is 0.55 of
-        camera 1's and the cat-print towel on wood (No.12) is not among the 12 candidates;
-        with 3 it is, and comes first after the re-ranking. 192 scenes (16 conditions):
-        189 successes either way.
+        coarser grids). Sharing saves most of the kernels' Fourier transforms; with more
+        depths a set the nearest depths' grids get too coarse for a print's peak.
     hypotheses : int
         Peaks returned.
     candidates : int
         Distinct peaks ranked again by the ``soft`` fitness of the scanned level (own
         colours, light offsets free; one evaluation each) before the best ``hypotheses`` of
-        them are returned. The scan sees no light offsets, and a print whose colours are
-        close to the table's can rank the table first: a cat-print towel (No.12) on a wood
-        table had its true peak 4th (scan score 0.184 against 0.209 for wood grain 200 mm
-        away), where the fitness, which takes the wood's tint out, ranks it first (0.50
-        against -0.25).
+        them are returned. The scan sees no light offsets, so a print whose colours are
+        close to the table's can rank the table first; the fitness takes the table's tint
+        out.
     min_separation : float
         Two peaks of about the same angle are distinct when their camera rays differ by more
         than this (x/z and y/z; 0.04 is 27 mm at 685 mm).
     min_angle_separation_deg : float
         ... or when their angles differ by more than this.
     trusted_score : float
-        Below this best score the peaks are not trusted alone (``locate`` runs its GA beside
-        them). The scan has no light offsets: under another lamp or exposure the garment's
-        own colours agree nowhere and the best peak is noise. Measured on trial 1 of the 12
-        garments: best scores 0.18-0.91 in paper light and on a wood table, 0.07-0.77 bright,
-        0.08-0.45 cool light; 0.00-0.06 dim and 0.00-0.03 under a warm lamp, where 6 of 12
-        best peaks missed the garment.
+        Below this best score the peaks are not trusted alone (:func:`relight_scan` looks
+        again, and ``locate`` runs its GA beside them when that is not trusted either). The
+        scan has no light offsets: under another lamp or exposure the garment's
+        own colours agree nowhere and the best peak is noise.
     relight : int
         Light offsets guessed from the scene's colours that :func:`relight_scan` scans
         with when a scan is not trusted (0: none).
@@ -127,9 +112,7 @@ class ScanConfig:
     rank_margin : float
         A trusted scan drops the hypotheses whose re-ranking fitness lies more than this
         below the best one's: each costs an evolution strategy on level 3, and one that far
-        below has not won. 192 scenes of 16 conditions: the same 189 successes and median
-        errors with 0.3, median evaluations 830 -> 700 (544 with 0.15); 108 overlap,
-        gripper and distractor scenes: 108 either way.
+        below has not won.
     """
 
     level: int = 3
@@ -183,10 +166,14 @@ class ScanResult:
     light_offsets: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
 
 
-def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def scan_flat_poses(model: PhotoModel | PreparedModel, features: StereoFeatures,
+                    lower: NDArray[np.float64],
                     upper: NDArray[np.float64], config: ScanConfig | None = None, *,
                     light_offset: ArrayLike | None = None) -> ScanResult:
     """Scan every image position of camera 1 over a grid of angles and depths.
+
+    The kernels' products and the peak search run on numba's threads (``NUMBA_NUM_THREADS``),
+    with the same peaks on any number of them.
 
     Parameters
     ----------
@@ -202,9 +189,6 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
         looked for with (:func:`~photomodel.fitness.light_offset_candidates`); default none,
         the light of the model station.
 
-    The kernels' products and the peak search run on numba's threads (``NUMBA_NUM_THREADS``),
-    with the same peaks on any number of them.
-
     Returns
     -------
     ScanResult
@@ -216,20 +200,20 @@ def scan_flat_poses(model: PhotoModel, features: StereoFeatures, lower: NDArray[
     shift = np.zeros(3) if light_offset is None else np.asarray(light_offset, dtype=np.float64)
     if shift.shape != (3,):
         raise ValueError(f"light_offset: expected 3 values, got {shift.shape}")
-    return _scan(model, features, lower, upper, c, shift)
+    return _scan(as_prepared(model), features, lower, upper, c, shift)
 
 
-def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def relight_scan(model: PhotoModel | PreparedModel, features: StereoFeatures,
+                 lower: NDArray[np.float64],
                  upper: NDArray[np.float64], config: ScanConfig | None = None,
                  keep: ScanResult | None = None) -> ScanResult | None:
-    """A second look for a scan that was not trusted: the scan again with the
-    ``config.relight`` light offsets the scene's colours suggest
-    (:func:`~photomodel.fitness.light_offset_candidates`).
+    """Scan again, for a scan that was not trusted, with the scene's likeliest light offsets.
 
-    Parameters are those of :func:`scan_flat_poses`, and ``keep``: the plain scan, whose
-    peaks compete with the relit ones in the ranking. Under a dim lamp the plain scan's
-    best score can be too low to trust while its peaks lie on the garment and the relit
-    scans' best lie on the table (a striped shirt: level-3 fitness 0.067 against -0.076).
+    The ``config.relight`` offsets come from
+    :func:`~photomodel.fitness.light_offset_candidates`. Parameters are those of
+    :func:`scan_flat_poses`, and ``keep``: the plain scan, whose peaks compete with the
+    relit ones in the ranking (under a dim lamp the plain scan's best score can be too low to
+    trust while its peaks lie on the garment and the relit scans' best lie on the table).
 
     Returns
     -------
@@ -240,6 +224,7 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
         them).
     """
     c = config or ScanConfig()
+    model = as_prepared(model)
     samples = model_samples(model, _scan_spacing(c))
     relit = [scan_flat_poses(model, features, lower, upper, c, light_offset=offset)
              for _, offset in light_offset_candidates(samples.f_in,
@@ -255,25 +240,27 @@ def relight_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.
     return _ranked(model, features, c, merged, margin=np.inf)
 
 
-def prepare_scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def prepare_scan(model: PhotoModel | PreparedModel, features: StereoFeatures,
+                 lower: NDArray[np.float64],
                  upper: NDArray[np.float64], config: ScanConfig | None = None) -> None:
-    """Build and keep what :func:`scan_flat_poses` with ``config`` needs of ``model`` beside
-    the images: its kernels' spectra for each depth group and the depths' pinhole grids.
+    """Build and keep what :func:`scan_flat_poses` with ``config`` needs of ``model``.
 
-    They depend on the model, the rig, the image size and the box (``lower``, ``upper``)
-    only; a scan builds them at its first use (a level-3 scan 30-40 ms, a level-4 scan
-    10 ms), and :func:`~photomodel.locate.prepare_model` builds them with the model's first
-    stereo pair instead. ``features`` gives the rig and the image size; its images are not
-    read."""
+    That is, beside the images: its kernels' spectra for each depth group and the depths'
+    pinhole grids. They depend on the model, the rig, the image size and the box (``lower``,
+    ``upper``) only; a scan builds them at its first use, and
+    :func:`~photomodel.locate.prepare_model` builds them before the model's first stereo pair
+    instead. ``features`` gives the rig and the image size; its images are not read.
+    """
     c = config or ScanConfig()
     if not 0 <= c.level < features.levels:
         raise ValueError(f"level: expected 0..{features.levels - 1}, got {c.level}")
+    model = as_prepared(model)
     labels = _labelled(model, features, c)
     _scan_plan(model, features, np.asarray(lower, dtype=np.float64),
                np.asarray(upper, dtype=np.float64), c, labels)
 
 
-def _scan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def _scan(model: PreparedModel, features: StereoFeatures, lower: NDArray[np.float64],
           upper: NDArray[np.float64], c: ScanConfig, shift: NDArray[np.float64]
           ) -> ScanResult:
     """One scan of :func:`scan_flat_poses`, the garment's colours shifted by ``shift``."""
@@ -309,25 +296,22 @@ class _Labels:
     colours: NDArray[np.intp]
 
 
-_LABELS: dict[int, dict[tuple[float, float], tuple[NDArray[np.float64], NDArray[np.intp],
-                                                   NDArray[np.intp], NDArray[np.intp]]]] = {}
-
-
-def _labelled(model: PhotoModel, features: StereoFeatures, c: ScanConfig) -> _Labels:
+def _labelled(model: PreparedModel, features: StereoFeatures, c: ScanConfig) -> _Labels:
     """The samples a scan with ``c`` correlates, each labelled with its nearest palette
     colour (the match's colour weights), and the colours used; the labels kept per samples
-    object and colour tolerances (every pair's scans ask for the same)."""
+    and colour tolerances (every pair's scans ask for the same)."""
     samples = model_samples(model, _scan_spacing(c))
     m = features.match
-    kept = owned(_LABELS, samples, dict)
-    key = (float(m.sigma_l), float(m.sigma_c))
-    if key not in kept:
+
+    def make() -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp],
+                        NDArray[np.intp]]:
         weights = np.array([1 / m.sigma_l**2, 1 / m.sigma_c**2, 1 / m.sigma_c**2])
         label_in = _nearest(samples.f_in, samples.palette, weights)
         label_out = _nearest(samples.f_out, samples.palette, weights)
-        kept[key] = (weights, label_in, label_out,
-                     np.unique(np.concatenate([label_in, label_out])))
-    return _Labels(samples, *kept[key])
+        return weights, label_in, label_out, np.unique(np.concatenate([label_in, label_out]))
+
+    return _Labels(samples, *samples.kept.get(("labels", float(m.sigma_l), float(m.sigma_c)),
+                                              make))
 
 
 @dataclass(frozen=True)
@@ -346,27 +330,25 @@ class _GroupPlan:
     rays: NDArray[np.float64]
 
 
-_PLANS: dict[int, OrderedDict[tuple[Any, ...], list[_GroupPlan]]] = {}
-
-
-def _scan_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def _scan_plan(model: PreparedModel, features: StereoFeatures, lower: NDArray[np.float64],
                upper: NDArray[np.float64], c: ScanConfig, labels: _Labels) -> list[_GroupPlan]:
     """The depth groups of a scan with ``c`` (samples ``labels``) that have depths inside the
     box (see :func:`_group_peaks`). They depend on the model, the rig, the image size and the
-    box only, and are kept per model object (at most ``_PLANS_PER_MODEL``; the grids also
+    box only, and are kept in the PreparedModel (at most ``_PLANS_PER_MODEL``; the grids also
     with :func:`_depth_grids`): a cell looks for one garment in many stereo pairs, and the
-    kernels' spectra were half a scan's time, the Python around its depths a millisecond."""
+    kernels' spectra would otherwise be about half of each scan's time."""
     m = features.match
     K1 = features.camera_matrices(c.level)[0]
     h, w = features.pyramids[0][c.level].shape[:2]
     rig_key = features.rig.calibration_key
     key = (c, m, rig_key, K1.tobytes(), h, w, lower.tobytes(), upper.tobytes())
-    return _kept(owned(_PLANS, model, OrderedDict), key,
-                 lambda: _make_plan(model, features, lower, upper, c, labels, K1, (h, w)),
-                 _PLANS_PER_MODEL)
+    return model.kept.recent(
+        "scan plans", key,
+        lambda: _make_plan(model, features, lower, upper, c, labels, K1, (h, w)),
+        _PLANS_PER_MODEL)
 
 
-def _make_plan(model: PhotoModel, features: StereoFeatures, lower: NDArray[np.float64],
+def _make_plan(model: PreparedModel, features: StereoFeatures, lower: NDArray[np.float64],
                upper: NDArray[np.float64], c: ScanConfig, labels: _Labels,
                K1: NDArray[np.float64], size: tuple[int, int]) -> list[_GroupPlan]:
     """:func:`_scan_plan`'s groups, built (``K1``: camera 1's matrix at the scanned level,
@@ -423,8 +405,7 @@ def _group_peaks(group: _GroupPlan, agree1: NDArray[np.float32], agree2: NDArray
     shares one set of kernel spectra (:class:`_GroupPlan`): both cameras' agreement images
     ``agree1``, ``agree2`` (C, h, w) carried onto each depth's pinhole grid and correlated
     with every angle's kernels, the group's depths in one batch; depth by depth, each map's
-    in the order of the angles. Four kernel calls a group (its depths on two Python threads
-    made some hundred small ones before session 21)."""
+    in the order of the angles. Four compiled calls a group, whatever its depths."""
     both = np.zeros((len(group.depths), len(agree1), *group.shape), dtype=np.float32)
     _carried(agree1, agree2, group.maps, group.sizes, both)
     found = _correlated_maxima(_planes_rfft2(both), group.kernels, *group.shape, group.sizes,
@@ -432,7 +413,7 @@ def _group_peaks(group: _GroupPlan, agree1: NDArray[np.float32], agree2: NDArray
     return _peak_rows(found, group.depths, thetas, group.rays)
 
 
-def _ranked(model: PhotoModel, features: StereoFeatures, c: ScanConfig, found: ScanResult,
+def _ranked(model: PreparedModel, features: StereoFeatures, c: ScanConfig, found: ScanResult,
             margin: float) -> ScanResult:
     """The best ``c.hypotheses`` peaks of ``found`` by the scanned level's ``soft`` fitness
     (light offsets free), without those more than ``margin`` below the best one's."""
@@ -475,7 +456,7 @@ def _nearest(colours: NDArray[np.float64], palette: NDArray[np.float64],
     return np.argmin(d2, axis=1)
 
 
-@njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _agreements(image, colours, weights):  # pragma: no cover - compiled
     """``exp(-d^2 / 2)`` of every pixel's feature (H, W, 3) float32 to each of ``colours``
     (C, 3), ``d^2`` weighted by ``weights`` (3,): (C, H, W) float32."""
@@ -504,7 +485,7 @@ def _depth_grids(rig: StereoRig, rig_key: tuple[bytes, ...], scale: float,
     """The pixel rays (h_z, w_z, 3) of the pinhole grid ``K_z`` and the positions in both
     cameras' images (pixels ``* scale``; :func:`_carried`'s maps) of its pixels at depth
     ``z``: they depend on the rig and the search box only, so the last ``_GRIDS_KEPT`` are
-    kept (about 3 ms a scan)."""
+    kept."""
     def make() -> tuple[NDArray[np.float64], tuple[NDArray[np.float32], ...],
                         tuple[NDArray[np.float32], ...]]:
         rays = _pixel_rays(K_z, h_z, w_z)
@@ -558,7 +539,7 @@ def _kernels(points: list[tuple[NDArray[np.float64], NDArray[np.intp], float]],
     return out
 
 
-@njit(cache=True)
+@njit
 def _splat(out, p, slot, weight, cos, sin, fx, fy):  # pragma: no cover - compiled
     """Add ``weight`` at each point's rotated, scaled pixel offset, bilinearly and modulo the
     kernel's size, into ``out[angle, slot[point]]``."""
@@ -583,15 +564,14 @@ def _splat(out, p, slot, weight, cos, sin, fx, fy):  # pragma: no cover - compil
             out[a, k, r1, c1] += weight * fu * fv
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(parallel=True, fastmath=True)
 def _carried(agree1, agree2, maps, sizes, out):  # pragma: no cover - compiled
     """``out[d, k, :h, :w]`` = the mean of both cameras' agreement images ``agree1``,
     ``agree2`` (C, H, W) carried onto depth ``d``'s grid (``sizes[d]`` = (h, w)): each
     bilinearly interpolated at its camera's pixel positions ``maps[d]`` (camera 1's u, v,
     camera 2's u, v), a pixel outside the image counting 0 (as ``cv2.remap`` with a constant
     border 0 does, to 1e-7). One call for every depth and colour of a group, the grids' rows
-    on numba's threads (two ``cv2.remap`` calls and the sum for each colour took a
-    millisecond of Python a level-4 scan, a call a depth 0.1 ms)."""
+    on numba's threads."""
     C, H, W = agree1.shape
     rows = maps.shape[2]
     for m in prange(maps.shape[0] * rows):
@@ -629,7 +609,7 @@ _PER_MAP = 4
 """Local maxima kept per (depth, angle) map."""
 
 
-@njit(cache=True)
+@njit
 def _peak_rows(found, depths, thetas, rays):  # pragma: no cover - compiled
     """The positive rows of :func:`_correlated_maxima`'s ``found`` (D, A, per_map, 3) as peaks
     (N, 5: score, z, angle, ray x, ray y), depth by depth, each depth's maps in the order of
@@ -658,19 +638,22 @@ def _peak_rows(found, depths, thetas, rays):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _planes_rfft2(x):  # pragma: no cover - compiled
     """``scipy.fft.rfft2`` of every plane of ``x`` (D, C, H, W) float32, the planes on
-    numba's threads (Rocket-FFT: the same PocketFFT, the same spectra to the bit; scipy's
-    ran them on one core)."""
+    numba's threads (Rocket-FFT: the same PocketFFT as ``scipy.fft``, the same spectra to
+    the bit)."""
     D, C, H, W = x.shape
     out = np.empty((D, C, H, W // 2 + 1), dtype=np.complex64)
     for m in prange(D * C):
-        out[m // C, m % C] = scipy.fft.rfft2(x[m // C, m % C])
+        f = scipy.fft.rfft2(x[m // C, m % C])
+        for i in range(H):
+            for j in range(W // 2 + 1):
+                out[m // C, m % C, i, j] = f[i, j]
     return out
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(parallel=True, fastmath=True)
 def _correlated_maxima(spectra, kernels, H, W, sizes, per_map):  # pragma: no cover - compiled
     """Rows (D, A, per_map, 3) of (row, column, value) of the highest local maxima of each
     map ``irfft2(sum_k spectra[d, k] * kernels[a, k], s=(H, W))`` (``spectra`` (D, C, H,
@@ -680,30 +663,33 @@ def _correlated_maxima(spectra, kernels, H, W, sizes, per_map):  # pragma: no co
 
     One task an angle on numba's threads: its products for every depth, then each depth's
     inverse transform (Rocket-FFT: the same PocketFFT as ``scipy.fft``, the same maps to the
-    bit) and its maxima; neither the sums nor the maps are kept. scipy's inverse transforms
-    ran on one core (a level-4 scan's 42 a depth group), and the sums, transforms and maxima
-    as three threaded passes took 2.28 against 1.88 ms a level-4 scan. The products run
-    along the spectra's rows, which vectorises (an angle's kernels, 40-80 kB, stay in cache
-    for the depths): with the depths innermost, each kernel element read once for all of
-    them, they took 0.43-0.49 ms of a level-4 scan's 0.70-0.81 ms, by rows 0.14-0.24 ms (the
-    sums by colour in the same order, their values within 6e-8 relative)."""
+    bit) and its maxima; neither the sums nor the maps are kept. The products run along the
+    spectra's rows, which vectorises (an angle's kernels, 40-80 kB, stay in cache for the
+    depths)."""
     D, C, _, Wh = spectra.shape
     A = kernels.shape[0]
     out = np.zeros((D, A, per_map, 3))
     for a in prange(A):
-        acc = np.zeros((D, H, Wh), dtype=spectra.dtype)
-        for d in range(D):
-            for k in range(C):
-                for i in range(H):
-                    for j in range(Wh):
-                        acc[d, i, j] += spectra[d, k, i, j] * kernels[a, k, i, j]
-        for d in range(D):
-            f = scipy.fft.irfft2(acc[d], s=(H, W))
-            _map_maxima(f, sizes[d, 0], sizes[d, 1], out[d, a])
+        _angle_maxima(spectra, kernels, np.int64(a), H, W, sizes, out)
     return out
 
 
-@njit(cache=True)
+@njit(fastmath=True)
+def _angle_maxima(spectra, kernels, a, H, W, sizes, out):  # pragma: no cover - compiled
+    """Angle ``a``'s part of :func:`_correlated_maxima`: ``out[:, a]``."""
+    D, C, _, Wh = spectra.shape
+    acc = np.zeros((D, H, Wh), dtype=spectra.dtype)
+    for d in range(D):
+        for k in range(C):
+            for i in range(H):
+                for j in range(Wh):
+                    acc[d, i, j] += spectra[d, k, i, j] * kernels[a, k, i, j]
+    for d in range(D):
+        f = scipy.fft.irfft2(acc[d], s=(H, W))
+        _map_maxima(f, sizes[d, 0], sizes[d, 1], out[d, a])
+
+
+@njit
 def _map_maxima(f, H, W, best):  # pragma: no cover - compiled
     """Fill ``best`` (per_map, 3) with (row, column, value) of the highest 3 x 3 local
     maxima of map ``f`` cropped to (``H``, ``W``), its edge repeated beyond them, best
@@ -724,7 +710,8 @@ def _map_maxima(f, H, W, best):  # pragma: no cover - compiled
                 continue
             k = per_map - 1
             while k > 0 and best[k - 1, 2] < v:
-                best[k] = best[k - 1]
+                for i in range(3):
+                    best[k, i] = best[k - 1, i]
                 k -= 1
             best[k, 0] = r
             best[k, 1] = c
@@ -749,12 +736,11 @@ def _distinct_peaks(peaks: NDArray[np.float64], lower: NDArray[np.float64],
     return ScanResult(poses, scores, maps, bool(len(scores) and scores[0] >= c.trusted_score))
 
 
-@njit(cache=True)
+@njit
 def _greedy_distinct(peaks, min_separation, min_angle, count):  # pragma: no cover - compiled
     """Rows of ``peaks`` (N, 5: score, z, angle, ray x, ray y; best first) kept greedily:
     each unless a kept one lies within ``min_separation`` in camera ray and ``min_angle``
-    in angle; at most ``count``. In numba: a level-4 scan's few hundred peaks took 0.2 ms of
-    Python."""
+    in angle; at most ``count``."""
     kept = np.empty(count, dtype=np.intp)
     n = 0
     for i in range(peaks.shape[0]):

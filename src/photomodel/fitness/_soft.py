@@ -16,8 +16,6 @@ averaged. What changes, and why:
   agreement minus that penalty (three mean-shift steps from the mean difference and from
   zero, the better end kept), not the mean difference itself: a gripper or another garment
   over part of the model disagrees and would drag a mean, and with it every other point.
-  Measured on one scene per garment: gripper 7/12 -> 9/12, overlap and blur about 3x more
-  successes, warm light 100 %.
 * **Graded votes**: a point's agreement is ``exp(-d^2 / 2)`` with
   ``d^2 = dl^2 / sigma_l^2 + (da^2 + db^2) / sigma_c^2`` after the offsets, in [0, 1].
 * **Balanced terms**: ``F_c = mean_in agreement - mean_out agreement - penalty``; both means
@@ -41,8 +39,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel._owned import owned
 from photomodel.camera import StereoRig
+from photomodel.fitness._prepared import PreparedModel, as_prepared
 from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_samples
 from photomodel.fitness._soft_jacobian import soft_normal_equations
 from photomodel.fitness._soft_kernels import soft_colourings_terms, soft_fitness_terms
@@ -72,15 +70,14 @@ class SoftMatch:
         table colour seen just outside (the blurred edge), a fraction ``Phi(-ring_mm /
         sigma)`` of it with ``sigma = hypot(optics blur, edge_blur_mm)``. Without it a dark
         garment's edge reads lighter in log units than its colour, and the fit shrinks the
-        model and moves it away (navy No.2: 4.8 mm too far along the ray).
+        model and moves it away.
     edge_blur_mm : float
         Linear-intensity blur of an edge besides the optics (pixel area, rendering), mm.
     min_edge_mix : float
-        A smaller mixed fraction counts as none. The coarse levels' rings lie far inside the
-        blur (level 3: a fraction of 1e-30 at a 0.5 mm camera blur, level 2: 1e-8, level
-        1: 2e-3), and a fraction of 1e-3 moves the expected colour of a dark garment's ring
-        by at most about 0.01 (a tenth of the tolerances) while its logarithms and
-        exponentials cost 15-25 % of an evaluation.
+        A smaller mixed fraction counts as none: the coarse levels' rings lie far inside the
+        blur, and a fraction of 1e-3 moves a dark garment's expected ring colour by at most
+        about 0.01, a tenth of the tolerances, while the mixture costs a fifth of an
+        evaluation.
     """
 
     sigma_l: float = 0.12
@@ -202,14 +199,12 @@ class _SampleArrays:
         return self.points[2]
 
 
-_SAMPLE_ARRAYS: dict[int, _SampleArrays] = {}
 _NO_PALETTE = np.zeros((0, 3))
 
 
 def _sample_arrays(samples: ModelSamples) -> _SampleArrays:
-    """:class:`_SampleArrays` of ``samples``, kept while they live: a pair's search builds a
-    dozen fitnesses of the same samples (0.1-0.3 ms each in a pair, most of it these
-    arrays)."""
+    """:class:`_SampleArrays` of ``samples``, kept with them: a pair's search builds a dozen
+    fitnesses of the same samples."""
     def make() -> _SampleArrays:
         n_in, n_out = len(samples.p_in), len(samples.p_out)
         none = np.full(n_in, -1, dtype=np.int64)
@@ -222,7 +217,7 @@ def _sample_arrays(samples: ModelSamples) -> _SampleArrays:
             np.ascontiguousarray(table, dtype=np.int64), none, _f64(samples.lin_in),
             weights, _f64(weights / 2.0))
 
-    return owned(_SAMPLE_ARRAYS, samples, make)
+    return samples.kept.get("arrays", make)
 
 
 class SoftFitness:
@@ -246,17 +241,19 @@ class SoftFitness:
     name : str
     """
 
-    def __init__(self, model: PhotoModel, features: StereoFeatures, level: int = 0,
+    def __init__(self, model: PhotoModel | PreparedModel, features: StereoFeatures,
+                 level: int = 0,
                  spacing: SampleSpacing | None = None, *, palette_weight: float = 0.0,
                  optics_blur_mm: float = DEFAULT_OPTICS_BLUR_MM, name: str = "soft") -> None:
         if not 0 <= level < features.levels:
             raise ValueError(f"level: expected 0..{features.levels - 1}, got {level}")
         self.name = name
-        self.model = model
+        self.prepared = as_prepared(model)
+        self.model = self.prepared.model
         self.features = features
         self.level = level
         spacing = spacing or level_spacing(level, optics_blur_mm=optics_blur_mm)
-        self.samples: ModelSamples = model_samples(model, spacing)
+        self.samples: ModelSamples = model_samples(self.prepared, spacing)
         if not 0.0 <= palette_weight <= 1.0:
             raise ValueError(f"palette_weight: expected [0, 1], got {palette_weight}")
         self.palette_weight = float(palette_weight)
@@ -316,7 +313,7 @@ class SoftFitness:
         Where ``others`` differ from this fitness only in their colours (the same model and
         level under other camera blurs: the same sample points, stereo pair and edge table,
         no palette), each camera samples its image once for all of them
-        (:func:`~photomodel.fitness._soft_kernels.soft_colourings_kernel`; the sampling is a
+        (:func:`~photomodel.fitness._soft_kernels.soft_colourings_terms`; the sampling is a
         third or more of a level-0 evaluation); otherwise each is evaluated on its own. The
         same values either way.
         """
@@ -362,11 +359,6 @@ class SoftFitness:
         own copy."""
         return self._weights.copy()
 
-    def residual_points(self) -> NDArray[np.float64]:
-        """Model-frame points (N_in + N_out, 3), mm, of the residuals' samples, in their
-        order (inner points first)."""
-        return np.concatenate([self.samples.p_in, self.samples.p_out])
-
     def normal_equations(self, A_cam1_model: NDArray[np.float64], dA: NDArray[np.float64],
                          offsets: NDArray[np.float64], with_offsets: bool = False
                          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -387,8 +379,8 @@ class SoftFitness:
             so by the implicit function theorem they move by ``-H_oo^-1 H_ox`` (that
             objective's Hessian in the offsets and its cross derivative with the genes), and
             each camera's term with them by its derivative in the offsets times that. The
-            result is the fitness's full gradient (within 0.1-4 % of its central differences
-            on the grey sock, where the held one is off by 50-320 %).
+            result is the fitness's full gradient; the held one can point far from it where
+            the band decides the fitness.
 
         Returns
         -------

@@ -6,17 +6,14 @@ respect to a gene that moves the sample's camera point ``X`` by ``dX`` is ``dI/d
 the bilinear interpolant's slope (from the same four pixels as the sample), the projection's
 Jacobian with the lens distortion (:func:`~photomodel.fitness._kernels._projection_jacobian`)
 and the map's derivative. An inner-ring point that expects its colour mixed with the table
-seen at its band point (the edge mixture) also moves with that band point's sample. One pose
-evaluated this way replaces the pose and its forward differences (seven or ten residual
-poses) and the products of :func:`~photomodel.search._gauss_newton._weighted_products`.
+seen at its band point (the edge mixture) also moves with that band point's sample.
 
 The camera point of model point ``q = (x, y, 1)`` moves along gene ``g`` by ``dX[g] q``, so a
 residual row is ``a (x) q`` (``a`` (3,): the colour's slope through the projection's Jacobian)
 times the fixed matrix ``D`` (9, G) of the genes' ``dX``: the sums run in this 9-dimensional
 space, one ``D`` product per call, and a plain inner point's ``sum_c w J_c^T J_c`` is the
-Kronecker product ``(w sum_c a_c a_c^T) (x) q q^T`` (36 products, where the genes' own form
-took about 140 and 54 more for the pixel motions): 1.6-1.8x faster on level 0 with nine
-genes, the same sums to 1e-13.
+Kronecker product ``(w sum_c a_c a_c^T) (x) q q^T`` (36 products, against about 190 in the
+genes' own form).
 
 The same pass sums what the light offsets need to follow the pose: the Hessian in the offsets
 of the objective they maximise and its cross derivative with the genes, and each camera term's
@@ -26,9 +23,10 @@ derivative in its offsets (``SoftFitness.normal_equations(with_offsets=True)``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from numba.extending import overload
 
+from photomodel._jit import njit
 from photomodel.fitness._kernels import exp_neg, plane_pixel_jacobians
 from photomodel.fitness._protocols import kernel_normal_equations
 from photomodel.fitness._soft_kernels import (
@@ -43,7 +41,7 @@ from photomodel.fitness._soft_kernels import (
 )
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _bilinear_slope(img, u, v, out, du, dv):  # pragma: no cover - compiled
     """``_bilinear`` of ``img`` at (u, v) into ``out``, and its slopes ``du``, ``dv`` (3,)."""
     iu, iv, fu, fv = _bilinear_cell(img, u, v)
@@ -62,7 +60,7 @@ def _bilinear_slope(img, u, v, out, du, dv):  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _sample_slope(proj, j, img, out, du, dv, jac):  # pragma: no cover - compiled
     """``out`` = the sample of ``img`` at point ``j``'s pixel, ``du``, ``dv`` its slopes
     along the image axes and ``jac`` (2, 3) the pixel's motion with the camera point, from
@@ -74,7 +72,7 @@ def _sample_slope(proj, j, img, out, du, dv, jac):  # pragma: no cover - compile
     return _bilinear_slope(img, proj[0, j], proj[1, j], out, du, dv)
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _add_outer(acc, a, x, y, f):  # pragma: no cover - compiled
     """``acc`` (9,) += ``f a (x) (x, y, 1)``, ``a`` (3,): a row in the model point's
     9-dimensional space (index ``3 i + b``: camera axis ``i``, model coordinate ``b``)."""
@@ -85,7 +83,7 @@ def _add_outer(acc, a, x, y, f):  # pragma: no cover - compiled
         acc[3 * i + 2] += s
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _add_gradient(g9, r, scale, du, dv, jac, x, y, w, a3):  # pragma: no cover - compiled
     """``g9`` (9,) -= ``w J^T r`` of a sample whose residual ``r`` (3,) moves with its own
     pixel only (slopes ``du``, ``dv``, projection Jacobian ``jac`` (2, 3), model point (x, y)):
@@ -101,7 +99,7 @@ def _add_gradient(g9, r, scale, du, dv, jac, x, y, w, a3):  # pragma: no cover -
     _add_outer(g9, a3, x, y, -w)
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _mixture_slope(work, j, model_lin, gain, t, out, slope):  # pragma: no cover - compiled
     """Ring point ``j``'s edge mixture in ``work`` (:func:`ring_mixtures`) into ``out``, and
     ``slope`` (3, 3) = d out / d table: log channel ``k`` mixes ``(1 - t) model gain + t
@@ -119,13 +117,13 @@ def _mixture_slope(work, j, model_lin, gain, t, out, slope):  # pragma: no cover
                 slope[c, i] += _OPPONENT[c, k] * share * _LOGS[k, i]
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _agreement(r):  # pragma: no cover - compiled
     """A sample's agreement ``exp(-|r|^2 / 2)`` from its scaled residual ``r`` (3,)."""
     return exp_neg(0.5 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _to_genes(dX, g9, m9, kron, cross9, gradient, metric, cross_o):  # pragma: no cover
     """Add the sums of the model point's 9-dimensional space to the genes' ``gradient`` (G,),
     ``metric`` (G, G) and ``cross_o`` (3, G): ``D^T g9``, ``D^T (m9 + kron) D`` and
@@ -174,7 +172,7 @@ _ROWS = 47
 _Q, _OK, _E, _DU, _DV, _L, _PU, _QU, _AW, _WE, _A = 0, 3, 4, 7, 10, 13, 28, 34, 40, 43, 46
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _dot_rows(work, r1, r2, n):  # pragma: no cover - compiled
     """The sum over the block's ``n`` points of rows ``r1`` and ``r2``' products."""
     s = 0.0
@@ -183,7 +181,7 @@ def _dot_rows(work, r1, r2, n):  # pragma: no cover - compiled
     return s
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _plain_sums(j0, j1, proj, img, xy_in, f_in, o, W, weights, n_in, work, g9, kron, cross9,
                 hess, slope_sum):  # pragma: no cover - compiled
     """The sums of :func:`_camera_normal_equations`' point loop over inner points ``j0`` to
@@ -192,8 +190,7 @@ def _plain_sums(j0, j1, proj, img, xy_in, f_in, o, W, weights, n_in, work, g9, k
     points laid out by point (``work`` (_ROWS * _BLOCK,)): the samples one point at a time,
     then the per-point products and the sums over the block as passes that vectorise (one
     flat array whose rows lie a constant ``_BLOCK`` apart, so that the compiler sees the
-    passes' writes never meet their reads; the point loop ran each point's 80-odd products
-    one after the other)."""
+    passes' writes never meet their reads)."""
     B = _BLOCK
     sample = np.empty(3)
     du = np.empty(3)
@@ -321,7 +318,7 @@ def _plain_sums(j0, j1, proj, img, xy_in, f_in, o, W, weights, n_in, work, g9, k
             g9[3 * i + b] += acc[9 + i, b]
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _camera_normal_equations(M, t, dX, K, D, xy_in, f_in, xy_out, f_out, img, scale,
                              table_out, mix_t, lin_in, o, weights, wb_weight, band,
                              band_slope, band_jac, band_ok, proj, mix_work, plain_work,
@@ -329,7 +326,7 @@ def _camera_normal_equations(M, t, dX, K, D, xy_in, f_in, xy_out, f_out, img, sc
                              slope_o):  # pragma: no cover - compiled
     """One camera's ``gradient`` (G,) and ``metric`` (G, G) at fixed light offsets ``o``, and
     the offsets' terms ``hess_o`` (3, 3), ``cross_o`` (3, G), ``slope_o`` (3) (see
-    :func:`soft_normal_kernel`), summed in the model point's 9-dimensional space (the module
+    :func:`soft_normal_equations`), summed in the model point's 9-dimensional space (the module
     docstring) and taken to the genes at the end; ``band`` (N_out, 3), ``band_slope`` (N_out,
     3, 2), ``band_jac`` (N_out, 2, 3) and ``band_ok`` are work space: a band point's sample,
     its slopes and its projection's Jacobian, for the inner ring's edge mixture; ``proj``
@@ -363,8 +360,8 @@ def _camera_normal_equations(M, t, dX, K, D, xy_in, f_in, xy_out, f_out, img, sc
     qu = np.empty(6)
     q3 = np.ones(3)
     # The offsets' sums in this thread's own arrays, added to the outputs at the end: the
-    # two cameras' outputs share a cache line, and summing into them point by point from
-    # two threads made the kernel 2x slower (the same sums in the same order).
+    # two cameras' outputs share a cache line, which summing into them point by point from
+    # two threads would contend for.
     hess = np.zeros((3, 3))
     slope_sum = np.zeros(3)
     _light_gain(o, gain)
@@ -504,64 +501,15 @@ def _camera_normal_equations(M, t, dX, K, D, xy_in, f_in, xy_out, f_out, img, sc
         slope_o[c] -= 2.0 * wb_weight * o[c]
 
 
-@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2,
-                       scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
-                       out_gradient, out_metric, out_hess_o, out_cross_o,
-                       out_slope_o):  # pragma: no cover - compiled
-    """Fill ``out_gradient`` (2, G) and ``out_metric`` (2, G, G) with each camera's held-offset
-    gradient ``-sum_j w_j J_j^T r_j`` and inner metric ``sum_inner w_j J_j^T J_j``.
-
-    With the offsets: ``out_hess_o`` (2, 3, 3) and ``out_cross_o`` (2, 3, G), the Hessian in
-    the offsets of each camera's offset objective (the mean agreement of the inner points'
-    plain differences less the chroma penalty, which the offsets maximise) and its cross
-    derivative with the genes, and ``out_slope_o`` (2, 3) the camera term's derivative in its
-    offsets: the offsets move with the pose by ``-hess^-1 cross`` (the implicit function
-    theorem), and the term with them by ``slope_o`` times that.
-
-    ``Ms`` (2, 3, 3) and ``ts`` (2, 3) map model points into each camera (``Ms[c][:, :2]``
-    used), ``dXs`` (2, G, 3, 3) the camera point's derivative along each gene (coefficients
-    of the model point's x, y and 1); ``offsets`` (2, 3) the held light offsets; ``weights``
-    (N_in + N_out,) the signed weights of :meth:`SoftFitness.residual_weights`; ``xy_in``
-    (2, N_in) and ``xy_out`` (2, N_out) the model points' x and y by row; ``w_j`` a
-    sample's weight times its agreement ``exp(-|r_j|^2 / 2)``. The two cameras run side by
-    side; each sums its samples in a fixed order (the same on any thread count).
-    """
-    n_out = xy_out.shape[1]
-    scale = np.array([scale_l, scale_c, scale_c])
-    for cam in prange(2):
-        band = np.empty((n_out, 3))
-        band_slope = np.empty((n_out, 3, 2))
-        band_jac = np.empty((n_out, 2, 3))
-        band_ok = np.empty(n_out, dtype=np.bool_)
-        proj = np.empty((8, max(xy_in.shape[1], n_out)))
-        mix_work = np.empty((4, 3 * ring_size(table_out)))
-        plain_work = np.empty(_ROWS * _BLOCK)
-        if cam == 0:
-            _camera_normal_equations(Ms[0], ts[0], dXs[0], K1, D1, xy_in, f_in, xy_out, f_out,
-                                     img1, scale, table_out, mix_t, lin_in, offsets[0],
-                                     weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, mix_work, plain_work, out_gradient[0],
-                                     out_metric[0],
-                                     out_hess_o[0], out_cross_o[0], out_slope_o[0])
-        else:
-            _camera_normal_equations(Ms[1], ts[1], dXs[1], K2, D2, xy_in, f_in, xy_out, f_out,
-                                     img2, scale, table_out, mix_t, lin_in, offsets[1],
-                                     weights, wb_weight, band, band_slope, band_jac,
-                                     band_ok, proj, mix_work, plain_work, out_gradient[1],
-                                     out_metric[1],
-                                     out_hess_o[1], out_cross_o[1], out_slope_o[1])
-
-
-@njit(cache=True, error_model="numpy")
+@njit(fastmath=False, error_model="numpy")
 def camera_frames(A, dA, R, T):  # pragma: no cover - compiled
     """The maps of model points into each camera and their derivatives, as
-    :func:`soft_normal_kernel` takes them: ``Ms`` (2, 3, 3) and ``ts`` (2, 3), the linear
+    :func:`soft_normal_equations` uses them: ``Ms`` (2, 3, 3) and ``ts`` (2, 3), the linear
     part and translation of ``A`` (4, 4) (camera 1) and of ``R A + T`` (camera 2), and
     ``dXs`` (2, G, 3, 3), each gene's derivative ``dA`` (G, 4, 4) of the camera point, by
     coefficient of the model point's x, y and 1 (``G`` may be 0: the maps alone, as
-    ``SoftFitness.slack_sums`` takes them). One call, where numpy's slicing, stacking and
-    products took 20-40 us an iteration of Gauss-Newton."""
+    ``SoftFitness.slack_sums`` takes them), in one compiled call an iteration of
+    Gauss-Newton."""
     G = dA.shape[0]
     Ms = np.empty((2, 3, 3))
     ts = np.empty((2, 3))
@@ -586,7 +534,7 @@ def camera_frames(A, dA, R, T):  # pragma: no cover - compiled
     return Ms, ts, dXs
 
 
-@njit(cache=True, error_model="numpy")
+@njit(fastmath=False, error_model="numpy")
 def full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets):  # pragma: no cover
     """Both cameras' gradient (2, G) summed, and with ``with_offsets`` the offsets' motion
     added: ``0.5 sum_c slope_o[c] . (-hess_o[c]^-1 cross_o[c])`` over the cameras whose
@@ -606,27 +554,62 @@ def full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets):  # pragma: 
 
 
 
-@njit(cache=True, error_model="numpy")
+@njit(fastmath=False, error_model="numpy")
+def _normal_sums(G):  # pragma: no cover - compiled
+    """Zeroed sums of :func:`soft_normal_equations`' cameras: gradient (2, G), metric (2,
+    G, G), offsets' Hessian (2, 3, 3), cross terms (2, 3, G) and slopes (2, 3)."""
+    return (np.zeros((2, G)), np.zeros((2, G, G)), np.zeros((2, 3, 3)), np.zeros((2, 3, G)),
+            np.zeros((2, 3)))
+
+
+@njit(fastmath=False, error_model="numpy")
+def _both_cameras(gradient, metric, hess_o, cross_o, slope_o, with_offsets):  # pragma: no cover
+    """:func:`full_gradient` and the metric of both cameras (G, G)."""
+    return (full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets),
+            metric[0] + metric[1])
+
+
+@njit(parallel=True, fastmath=True, error_model="numpy")
 def soft_normal_equations(A, dA, offsets, with_offsets, args):  # pragma: no cover - compiled
     """``SoftFitness.normal_equations`` of the map ``A`` (4, 4) and its derivatives ``dA`` (G,
     4, 4) at the light offsets ``offsets`` (2, 3): the gradient (G,) (with the offsets' motion
-    when ``with_offsets``) and the metric (G, G). ``args`` holds :func:`soft_normal_kernel`'s
-    fixed arguments (``SoftFitness.normal_args``). Called from Python and from
-    Gauss-Newton's numba loop alike."""
+    when ``with_offsets``) and the metric (G, G). ``args`` holds the fixed arguments
+    (``SoftFitness.normal_args``). Called from Python and from Gauss-Newton's numba loop
+    alike.
+
+    Each camera's held-offset gradient ``-sum_j w_j J_j^T r_j`` and inner metric
+    ``sum_inner w_j J_j^T J_j`` on its own thread (:func:`_camera_normal_equations`), and with
+    the offsets the Hessian in the offsets of each camera's offset objective (the mean
+    agreement of the inner points' plain differences less the chroma penalty, which the
+    offsets maximise) and its cross derivative with the genes, and the camera term's
+    derivative in its offsets: the offsets move with the pose by ``-hess^-1 cross`` (the
+    implicit function theorem), and the term with them by ``slope_o`` times that
+    (:func:`full_gradient`). ``w_j`` is a sample's weight (``SoftFitness.residual_weights``)
+    times its agreement ``exp(-|r_j|^2 / 2)``; each camera sums its samples in a fixed order
+    (the same on any thread count)."""
     (R, T, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2, scale_l, scale_c, table_out,
      mix_t, lin_in, weights, wb_weight) = args
     Ms, ts, dXs = camera_frames(A, dA, R, T)
-    G = dA.shape[0]
-    gradient = np.zeros((2, G))
-    metric = np.zeros((2, G, G))
-    hess_o = np.zeros((2, 3, 3))
-    cross_o = np.zeros((2, 3, G))
-    slope_o = np.zeros((2, 3))
-    soft_normal_kernel(Ms, ts, dXs, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, img1, img2,
-                       scale_l, scale_c, table_out, mix_t, lin_in, offsets, weights, wb_weight,
-                       gradient, metric, hess_o, cross_o, slope_o)
-    return (full_gradient(gradient, hess_o, cross_o, slope_o, with_offsets),
-            metric[0] + metric[1])
+    out_gradient, out_metric, out_hess_o, out_cross_o, out_slope_o = _normal_sums(dA.shape[0])
+    n_out = xy_out.shape[1]
+    scale = np.array([scale_l, scale_c, scale_c])
+    for cam in prange(2):
+        band = np.empty((n_out, 3))
+        band_slope = np.empty((n_out, 3, 2))
+        band_jac = np.empty((n_out, 2, 3))
+        band_ok = np.empty(n_out, dtype=np.bool_)
+        proj = np.empty((8, max(xy_in.shape[1], n_out)))
+        mix_work = np.empty((4, 3 * ring_size(table_out)))
+        plain_work = np.empty(_ROWS * _BLOCK)
+        _camera_normal_equations(Ms[cam], ts[cam], dXs[cam], K1 if cam == 0 else K2,
+                                 D1 if cam == 0 else D2, xy_in, f_in, xy_out, f_out,
+                                 img1 if cam == 0 else img2, scale, table_out, mix_t, lin_in,
+                                 offsets[cam], weights, wb_weight, band, band_slope, band_jac,
+                                 band_ok, proj, mix_work, plain_work, out_gradient[cam],
+                                 out_metric[cam], out_hess_o[cam], out_cross_o[cam],
+                                 out_slope_o[cam])
+    return _both_cameras(out_gradient, out_metric, out_hess_o, out_cross_o, out_slope_o,
+                         with_offsets)
 
 
 @overload(kernel_normal_equations)

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 from numba.extending import overload
 
+from photomodel._jit import njit
 from photomodel.fitness._kernels import (
     camera2_pose,
     exp_neg,
@@ -27,7 +28,7 @@ _LOGS = np.linalg.inv(_OPPONENT)
 """(l, a, b) = _OPPONENT @ (ln B', ln G', ln R') and back (X' = X + 8, as in log_opponent)."""
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _bilinear_cell(img, u, v):  # pragma: no cover - compiled
     """The top-left pixel (iu, iv) of the 2 x 2 cell that interpolates ``img`` at (u, v),
     and the fractions (fu, fv) across it; iu = -1 where (u, v) lies outside the image."""
@@ -40,7 +41,7 @@ def _bilinear_cell(img, u, v):  # pragma: no cover - compiled
     return iu, iv, u - iu, v - iv
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _bilinear(img, u, v, out):  # pragma: no cover - compiled
     """``out`` (3,) = the bilinear sample of ``img`` at (u, v); False outside the image."""
     iu, iv, fu, fv = _bilinear_cell(img, u, v)
@@ -53,7 +54,7 @@ def _bilinear(img, u, v, out):  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _sample_point(R, t, K, D, x, y, img, out):  # pragma: no cover - compiled
     """``out`` = the bilinear sample of ``img`` where the model-plane point ``(x, y)`` lies at
     pose ``(R, t)`` through camera ``K``, ``D``; False when it falls outside the image."""
@@ -61,7 +62,7 @@ def _sample_point(R, t, K, D, x, y, img, out):  # pragma: no cover - compiled
     return _bilinear(img, u, v, out)
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _light_gain(o, gain):  # pragma: no cover - compiled
     """``gain`` = the factors of the light offsets ``o`` on the linear channels (B', G', R'):
     exp of the offsets' log channels."""
@@ -69,7 +70,7 @@ def _light_gain(o, gain):  # pragma: no cover - compiled
         gain[k] = np.exp(_LOGS[k, 0] * o[0] + _LOGS[k, 1] * o[1] + _LOGS[k, 2] * o[2])
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
     """Squared colour distance of a feature difference (dl, da, db) after the offsets."""
     el = dl - o[0]
@@ -78,7 +79,7 @@ def _distance2(dl, da, db, o, inv_var_l, inv_var_c):  # pragma: no cover - compi
     return el * el * inv_var_l + (ea * ea + eb * eb) * inv_var_c
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _offset_agreement(dl, da, db, ol, oa, ob, inv_var_l, inv_var_c):  # pragma: no cover
     """Agreement of a feature difference (dl, da, db) after the offsets (ol, oa, ob), given
     as scalars: a loop over samples of it vectorises."""
@@ -88,13 +89,13 @@ def _offset_agreement(dl, da, db, ol, oa, ob, inv_var_l, inv_var_c):  # pragma: 
     return exp_neg(0.5 * (el * el * inv_var_l + (ea * ea + eb * eb) * inv_var_c))
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _agreement(sample, colour, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
     return exp_neg(0.5 * _distance2(sample[0] - colour[0], sample[1] - colour[1],
                                     sample[2] - colour[2], o, inv_var_l, inv_var_c))
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cover - compiled
     """Agreement with the nearest palette colour: one exp of the smallest distance."""
     best = np.inf
@@ -104,7 +105,7 @@ def _best_agreement(sample, palette, o, inv_var_l, inv_var_c):  # pragma: no cov
     return exp_neg(0.5 * best)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def ring_size(table_out):  # pragma: no cover - compiled
     """Inner points up to the last one with a band point in ``table_out`` (the inner ring
     comes first, the interior after it): the ones :func:`ring_mixtures` covers."""
@@ -114,7 +115,7 @@ def ring_size(table_out):  # pragma: no cover - compiled
     return n
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _mix_inputs(work, i, k, own, table, seen):  # pragma: no cover - compiled
     """Entry ``i`` of :func:`mix_logs`' inputs: ``own`` (the model's part of log channel
     ``k``'s intensity) and the table colour ``table``'s log channel ``k`` where the table is
@@ -127,7 +128,7 @@ def _mix_inputs(work, i, k, own, table, seen):  # pragma: no cover - compiled
         work[1, i] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: no cover
     """The edge mixture of each of the ``n = work.shape[1] // 3`` first inner points with a
     band point ``table_out[j] >= 0`` whose sample ``band`` (N_out, 3) is ``band_ok``: its
@@ -139,8 +140,7 @@ def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: n
     its log channels, and takes the scene's offsets as the factors ``gain`` = exp of the
     offsets' log channels (intensities + LOG_OFFSET mix as intensities do: the offset
     carries through). Laid out by channel so that the exponentials and logarithms run in
-    one loop that vectorises (the library's scalar ones were a fifth of a fitness
-    evaluation)."""
+    one loop that vectorises."""
     n = work.shape[1] // 3
     for k in range(3):
         for j in range(n):
@@ -150,7 +150,7 @@ def ring_mixtures(lin_in, gain, table_out, band, band_ok, t, work):  # pragma: n
     mix_logs(t, work)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover - compiled
     """:func:`ring_mixtures` of one inner point, its linear model colour ``lin`` (3,), with
     each of the ``n = work.shape[1] // 3`` table colours ``tables`` (n, 3) that is
@@ -163,7 +163,7 @@ def slide_mixtures(lin, gain, tables, tables_ok, t, work):  # pragma: no cover -
     mix_logs(t, work)
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def mixed_features(work, j, out):  # pragma: no cover - compiled
     """``out`` = the features (l, a, b) of ring point ``j``'s edge mixture in ``work``
     (:func:`ring_mixtures`)."""
@@ -171,7 +171,7 @@ def mixed_features(work, j, out):  # pragma: no cover - compiled
         out[c] = _mixed_feature(work, j, c)
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _mixed_feature(work, j, c):  # pragma: no cover - compiled
     """Feature ``c`` (0: l, 1: a, 2: b) of :func:`mixed_features`, as a scalar (a loop over
     ring points or slides of it vectorises)."""
@@ -180,7 +180,7 @@ def _mixed_feature(work, j, c):  # pragma: no cover - compiled
             + _OPPONENT[c, 2] * work[3, 2 * n + j])
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok,
                     pix):  # pragma: no cover - compiled
     """One camera's samples of the model points at pose ``(R, t)``: ``buf`` (N_in, 3) the
@@ -203,7 +203,7 @@ def _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok,
             buf[j, c] = sample[c]
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb_weight,
                   table_out, mix_t, lin_in, buf, diff, valid, band, band_ok, mix_work,
                   out):  # pragma: no cover - compiled
@@ -359,7 +359,7 @@ def _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c, wb
     out[5] = o[2]
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2):  # pragma: no cover
     """Pose, intrinsics, distortion and image of (pose, camera) pair ``q``: pose ``q // 2``
     seen by camera 1 (even ``q``) or camera 2 (odd)."""
@@ -370,68 +370,103 @@ def _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2):  # pragma: no
     return R, t, K2, D2, img2
 
 
-@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def soft_fitness_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, palette,
-                        palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
-                        table_out, mix_t, lin_in, lanes,
-                        out_f, out_terms):  # pragma: no cover - compiled
-    """Fill ``out_f`` (P,) with the fitness and ``out_terms`` (P, 2, 6) with each camera's
-    (F_c, S_in agreement, S_out agreement, offsets l, a, b), on ``lanes`` threads (the
-    number of threads; each takes every ``lanes``-th (pose, camera) pair with its own work
-    space: a single pose's two cameras run side by side, 2x faster on two threads).
-    ``xy_in`` (2, N_in) and ``xy_out`` (2, N_out) hold the model points' x and y by row
-    (``SoftFitness.kernel_args``)."""
+@njit(fastmath=True, error_model="numpy")
+def _fitness_lane(lane, lanes, Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out,
+                  palette, palette_weight, img1, img2, inv_var_l, inv_var_c, wb_weight,
+                  table_out, mix_t, lin_in, out_terms):  # pragma: no cover - compiled
+    """Thread ``lane``'s part of :func:`soft_fitness_terms`: every ``lanes``-th (pose,
+    camera) pair from ``lane``, with its own work space."""
     n_in = xy_in.shape[1]
-    pairs = 2 * Rs.shape[0]    # (pose, camera) pairs: a single pose keeps two threads busy
+    pairs = 2 * Rs.shape[0]
+    buf = np.empty((n_in, 3))
+    diff = np.empty((3, n_in))
+    valid = np.empty(n_in)
+    band = np.empty((xy_out.shape[1], 3))
+    band_ok = np.empty(xy_out.shape[1], dtype=np.bool_)
+    pix = np.empty((2, max(n_in, xy_out.shape[1])))
+    mix_work = np.empty((4, 3 * ring_size(table_out)))
+    for q in range(lane, pairs, lanes):
+        p = q // 2
+        R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
+        _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok, pix)
+        _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c,
+                      wb_weight, table_out, mix_t, lin_in, buf, diff, valid, band,
+                      band_ok, mix_work, out_terms[p, q % 2])
+
+
+@njit(parallel=True, fastmath=True, error_model="numpy")
+def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
+    """The fitness (P,) and each camera's terms (P, 2, 6: F_c, S_in agreement, S_out
+    agreement, offsets l, a, b) of the maps ``T`` (P, 4, 4) of model points into camera 1
+    (their first two columns, and the translation), on ``lanes`` threads (the number of
+    threads; each takes every ``lanes``-th (pose, camera) pair with its own work space: a
+    single pose's two cameras run side by side). ``args`` holds
+    the kernel's fixed arguments (``SoftFitness.kernel_args``): ``R21``, ``T21``, ``K1``,
+    ``D1``, ``K2``, ``D2``, ``xy_in`` (2, N_in) and ``xy_out`` (2, N_out) the model points'
+    x and y by row, ``f_in``, ``f_out``, ``palette``, ``palette_weight``, ``img1``,
+    ``img2``, ``inv_var_l``, ``inv_var_c``, ``wb_weight``, ``table_out``, ``mix_t``,
+    ``lin_in``. Called from Python and from the searches' numba loops alike
+    (``numba.get_num_threads()`` inside would keep it from the cache)."""
+    (R21, T21, K1, D1, K2, D2, xy_in, f_in, xy_out, f_out, palette, palette_weight, img1,
+     img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_t, lin_in) = args
+    P = T.shape[0]
+    Rs, ts = _pose_rows(T)
+    out_f = np.empty(P)
+    out_terms = np.empty((P, 2, 6))
+    pairs = 2 * P    # (pose, camera) pairs: a single pose keeps two threads busy
     lanes = min(lanes, pairs)
     for lane in prange(lanes):     # work space once per thread
-        buf = np.empty((n_in, 3))
-        diff = np.empty((3, n_in))
-        valid = np.empty(n_in)
-        band = np.empty((xy_out.shape[1], 3))
-        band_ok = np.empty(xy_out.shape[1], dtype=np.bool_)
-        pix = np.empty((2, max(n_in, xy_out.shape[1])))
-        mix_work = np.empty((4, 3 * ring_size(table_out)))
-        for q in range(lane, pairs, lanes):
-            p = q // 2
-            R, t, K, D, img = _pair_camera(q, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
-            _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok, pix)
-            _camera_terms(f_in, f_out, palette, palette_weight, inv_var_l, inv_var_c,
-                          wb_weight, table_out, mix_t, lin_in, buf, diff, valid, band,
-                          band_ok, mix_work, out_terms[p, q % 2])
-    for p in range(Rs.shape[0]):
+        _fitness_lane(np.int64(lane), lanes, Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, f_in,
+                      xy_out, f_out, palette, palette_weight, img1, img2, inv_var_l, inv_var_c,
+                      wb_weight, table_out, mix_t, lin_in, out_terms)
+    for p in range(P):
         out_f[p] = 0.5 * (out_terms[p, 0, 0] + out_terms[p, 1, 0])
+    return out_f, out_terms
 
 
-@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def soft_colourings_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, xy_out, f_ins, f_outs,
-                           img1, img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_ts,
-                           lin_ins, out_terms):  # pragma: no cover - compiled
-    """Fill ``out_terms`` (S, 2, 6) with each camera's terms (as :func:`soft_fitness_kernel`'s,
-    without a palette) at the pose ``Rs[0]``, ``ts[0]`` for S colourings of the same points:
-    ``f_ins`` (S, N_in, 3), ``f_outs`` (S, N_out, 3), ``mix_ts`` (S,), ``lin_ins`` (S, N_in,
-    3) (the model under S camera blurs). Each camera samples its image once, on its own
+@njit(parallel=True, fastmath=True, error_model="numpy")
+def soft_colourings_terms(T, args, f_ins, f_outs, mix_ts, lin_ins):  # pragma: no cover
+    """Each camera's terms (S, 2, 6) (as :func:`soft_fitness_terms`', without a palette) at
+    the map ``T`` (1, 4, 4) for S colourings of the same points: ``f_ins`` (S, N_in, 3),
+    ``f_outs`` (S, N_out, 3), ``mix_ts`` (S,), ``lin_ins`` (S, N_in, 3) (the model under S
+    camera blurs), with the fixed arguments of one of the colourings'
+    ``SoftFitness.kernel_args`` (``args``). Each camera samples its image once, on its own
     thread; the colourings compare those samples in turn."""
+    (R21, T21, K1, D1, K2, D2, xy_in, _f_in, xy_out, _f_out, _palette, _weight, img1, img2,
+     inv_var_l, inv_var_c, wb_weight, table_out, _mix_t, _lin_in) = args
+    Rs, ts = _pose_rows(T)
+    out_terms = np.empty((f_ins.shape[0], 2, 6))
+    for cam in prange(2):
+        _colourings_camera(np.int64(cam), Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, xy_out, f_ins,
+                           f_outs, img1, img2, inv_var_l, inv_var_c, wb_weight, table_out,
+                           mix_ts, lin_ins, out_terms)
+    return out_terms
+
+
+@njit(fastmath=True, error_model="numpy")
+def _colourings_camera(cam, Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, xy_out, f_ins, f_outs,
+                       img1, img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_ts, lin_ins,
+                       out_terms):  # pragma: no cover - compiled
+    """Camera ``cam``'s part of :func:`soft_colourings_terms`: ``out_terms[:, cam]``."""
     n_in = xy_in.shape[1]
     n_out = xy_out.shape[1]
     palette = np.zeros((0, 3))
-    for cam in prange(2):
-        buf = np.empty((n_in, 3))
-        diff = np.empty((3, n_in))
-        valid = np.empty(n_in)
-        band = np.empty((n_out, 3))
-        band_ok = np.empty(n_out, dtype=np.bool_)
-        pix = np.empty((2, max(n_in, n_out)))
-        mix_work = np.empty((4, 3 * ring_size(table_out)))
-        R, t, K, D, img = _pair_camera(cam, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
-        _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok, pix)
-        for k in range(f_ins.shape[0]):
-            _camera_terms(f_ins[k], f_outs[k], palette, 0.0, inv_var_l, inv_var_c, wb_weight,
-                          table_out, mix_ts[k], lin_ins[k], buf, diff, valid, band, band_ok,
-                          mix_work, out_terms[k, cam])
+    buf = np.empty((n_in, 3))
+    diff = np.empty((3, n_in))
+    valid = np.empty(n_in)
+    band = np.empty((n_out, 3))
+    band_ok = np.empty(n_out, dtype=np.bool_)
+    pix = np.empty((2, max(n_in, n_out)))
+    mix_work = np.empty((4, 3 * ring_size(table_out)))
+    R, t, K, D, img = _pair_camera(cam, Rs, ts, R21, T21, K1, D1, K2, D2, img1, img2)
+    _camera_samples(R, t, K, D, xy_in, xy_out, img, buf, valid, band, band_ok, pix)
+    for k in range(f_ins.shape[0]):
+        _camera_terms(f_ins[k], f_outs[k], palette, 0.0, inv_var_l, inv_var_c, wb_weight,
+                      table_out, mix_ts[k], lin_ins[k], buf, diff, valid, band, band_ok,
+                      mix_work, out_terms[k, cam])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _pose_rows(T):  # pragma: no cover - compiled
     """The rotations (P, 3, 3) (the maps' first three columns) and translations (P, 3) of
     the maps ``T`` (P, 4, 4), as the kernels take them."""
@@ -446,40 +481,11 @@ def _pose_rows(T):  # pragma: no cover - compiled
     return Rs, ts
 
 
-@njit(cache=True, error_model="numpy")
-def soft_colourings_terms(T, args, f_ins, f_outs, mix_ts, lin_ins):  # pragma: no cover
-    """:func:`soft_colourings_kernel` at the map ``T`` (1, 4, 4) with the fixed arguments of
-    one of the colourings' ``SoftFitness.kernel_args`` (``args``): each colouring's terms
-    (S, 2, 6)."""
-    (R21, T21, K1, D1, K2, D2, xy_in, _f_in, xy_out, _f_out, _palette, _weight, img1, img2,
-     inv_var_l, inv_var_c, wb_weight, table_out, _mix_t, _lin_in) = args
-    Rs, ts = _pose_rows(T)
-    terms = np.empty((f_ins.shape[0], 2, 6))
-    soft_colourings_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, xy_in, xy_out, f_ins, f_outs, img1,
-                           img2, inv_var_l, inv_var_c, wb_weight, table_out, mix_ts, lin_ins,
-                           terms)
-    return terms
-
-
-@njit(cache=True, error_model="numpy")
-def soft_fitness_terms(T, lanes, args):  # pragma: no cover - compiled
-    """:func:`soft_fitness_kernel` of the maps ``T`` (P, 4, 4) of model points into camera 1
-    (their first two columns, and the translation) on ``lanes`` threads: the fitness (P,) and
-    each camera's terms (P, 2, 6). ``args`` holds the kernel's arguments from ``R21`` to
-    ``lin_in`` (``SoftFitness.kernel_args``). Called from Python and from the searches'
-    numba loops alike (``numba.get_num_threads()`` inside would keep it from the cache)."""
-    P = T.shape[0]
-    Rs, ts = _pose_rows(T)
-    f = np.empty(P)
-    terms = np.empty((P, 2, 6))
-    soft_fitness_kernel(Rs, ts, *args, lanes, f, terms)
-    return f, terms
-
-
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def soft_fitness_values(T, lanes, args):  # pragma: no cover - compiled
     """The fitness (P,) of :func:`soft_fitness_terms` and each pose's light offsets (P, 2,
-    3): the pose kernel the searches' numba loops call (``SoftFitness.kernel_args``)."""
+    3): the pose kernel the searches' numba loops call (``SoftFitness.kernel_args``), its
+    body compiled into them as ``kernel_values``' implementation."""
     f, terms = soft_fitness_terms(T, lanes, args)
     return f, terms[:, :, 3:6]
 
@@ -494,13 +500,14 @@ def soft_args_type(args: types.Type, size: int, images: tuple[int, int]) -> bool
 
 @overload(kernel_values)
 def _kernel_values(T, lanes, args):  # type: ignore[no-untyped-def]
-    """The ``soft`` fitness's implementation of the searches' ``kernel_values``."""
+    """The ``soft`` fitness's implementation of the searches' ``kernel_values``: the body of
+    :func:`soft_fitness_values` (not a call of it, which would be one more compiled layer)."""
     if soft_args_type(args, 20, (12, 13)):
-        return lambda T, lanes, args: soft_fitness_values(T, lanes, args)
+        return soft_fitness_values.py_func
     return None
 
 
-@njit(cache=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
 def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_c, table_out,
                       mix_t, lin_in, o, band, mix_work, out_r, out_ok):  # pragma: no cover
     """Residuals of one camera at fixed light offsets ``o``: ``out_r`` (N_in + N_out, 3)
@@ -538,14 +545,14 @@ def _camera_residuals(R, t, K, D, p_in, f_in, p_out, f_out, img, scale_l, scale_
         out_r[j, 2] = expected[2] * scale_c
 
 
-@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+@njit(parallel=True, fastmath=True, error_model="numpy")
 def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f_out, img1,
                           img2, scale_l, scale_c, table_out, mix_t, lin_in, offsets, lanes,
                           out_r, out_ok):  # pragma: no cover - compiled
     """Fill ``out_r`` (P, 2, N_in + N_out, 3) with both cameras' scaled colour residuals at
     the fixed light offsets ``offsets`` (2, 3), and ``out_ok`` (P, 2, N_in + N_out) with
     whether each sample fell inside its image; (pose, camera) pairs on ``lanes`` threads as
-    in :func:`soft_fitness_kernel`."""
+    in :func:`soft_fitness_terms`."""
     pairs = 2 * Rs.shape[0]    # (pose, camera) pairs
     lanes = min(lanes, pairs)
     for lane in prange(lanes):
@@ -559,7 +566,7 @@ def soft_residuals_kernel(Rs, ts, R21, T21, K1, D1, K2, D2, p_in, f_in, p_out, f
                               out_r[p, q % 2], out_ok[p, q % 2])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _plane_affine(plane, lens, x, y):  # pragma: no cover - compiled
     """Pixel (u, v) of the model-plane point ``(x, y)`` and the pixel steps of 1 mm along the
     model's x and y there (forward differences): (u, v, du_x, dv_x, du_y, dv_y); the pose and
@@ -573,12 +580,11 @@ def _plane_affine(plane, lens, x, y):  # pragma: no cover - compiled
     return u, v, ux - u, vx - v, uy - u, vy - v
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _plane_affines(R, t, K, D, xy, out):  # pragma: no cover - compiled
     """``out`` (6, N) = :func:`_plane_affine` of each model-plane point ``xy`` (2, N: x and y
-    by row), in one loop that vectorises (a point at a time, its three projections took a
-    tenth of the score; the pose and camera read through their arrays in the loop, 111 us
-    for 2338 points, read once before it 19 us)."""
+    by row), in one loop that vectorises; the pose's and camera's constants are read once
+    before it."""
     plane = plane_constants(R, t)
     lens = lens_constants(K, D)
     for j in range(xy.shape[1]):
@@ -586,7 +592,7 @@ def _plane_affines(R, t, K, D, xy, out):  # pragma: no cover - compiled
          out[5, j]) = _plane_affine(plane, lens, xy[0, j], xy[1, j])
 
 
-@njit(cache=True, inline="always", fastmath=True, error_model="numpy")
+@njit(inline="always", fastmath=True, error_model="numpy")
 def _slide_samples(img, u0, v0, du_x, dv_x, du_y, dv_y, shifts, smp,
                    inside):  # pragma: no cover - compiled
     """``smp`` (3, S) = the bilinear samples of ``img`` at pixel (u0, v0) moved by each of
@@ -605,7 +611,89 @@ def _slide_samples(img, u0, v0, du_x, dv_x, du_y, dv_y, shifts, smp,
             inside[q] = 0.0
 
 
-@njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
+@njit(fastmath=True, error_model="numpy")
+def _slack_camera(M, t, K, D, img, o, shifts, xy_in, f_in, xy_out, f_out, inv_var_l,
+                  inv_var_c, table_out, mix_t, lin_in, pair_out, cell_in, cell_out,
+                  out):  # pragma: no cover - compiled
+    """One camera's part of :func:`soft_slack_sums_kernel`: ``out`` (S, 3, C)."""
+    n_in = xy_in.shape[1]
+    n_out = xy_out.shape[1]
+    S = shifts.shape[0]
+    cells = out.shape[2]
+    gain = np.empty(3)
+    _light_gain(o, gain)
+    # A point's slides side by side (the inner ring reads its band point's 25 at once),
+    # and the sums by cell: (cell, term, slide).
+    band = np.empty((n_out, S, 3))
+    band_a = np.empty((n_out, S))
+    band_ok = np.empty((n_out, S), dtype=np.bool_)
+    sums = np.zeros((cells, 3, S))
+    # A point's slides by channel (l, a, b rows) and whether each fell inside (1.0 or
+    # 0.0): the samples one slide at a time, everything after them as passes over the
+    # slides that vectorise.
+    smp = np.zeros((3, S))
+    inside = np.empty(S)
+    a = np.empty(S)
+    mix_work = np.empty((4, 3 * S))
+    aff = np.empty((6, max(n_in, n_out)))    # each point's pixel and steps a mm
+    _plane_affines(M, t, K, D, xy_out, aff)
+    for j in range(n_out):
+        _slide_samples(img, aff[0, j], aff[1, j], aff[2, j], aff[3, j], aff[4, j],
+                       aff[5, j], shifts, smp, inside)
+        c = cell_out[j]
+        for q in range(S):
+            band_ok[j, q] = inside[q] > 0.0
+            for k in range(3):
+                band[j, q, k] = smp[k, q]
+        f0 = f_out[j, 0] + o[0]
+        f1 = f_out[j, 1] + o[1]
+        f2 = f_out[j, 2] + o[2]
+        for q in range(S):
+            a[q] = _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1, f2, inv_var_l,
+                                     inv_var_c) if inside[q] > 0.0 else 1.0
+        for q in range(S):
+            band_a[j, q] = a[q]
+            sums[c, 1, q] += a[q]
+    mixed = np.empty(S)
+    _plane_affines(M, t, K, D, xy_in, aff)
+    for j in range(n_in):
+        _slide_samples(img, aff[0, j], aff[1, j], aff[2, j], aff[3, j], aff[4, j],
+                       aff[5, j], shifts, smp, inside)
+        c = cell_in[j]
+        mix = table_out[j]
+        pair = pair_out[j]
+        f0 = f_in[j, 0] + o[0]
+        f1 = f_in[j, 1] + o[1]
+        f2 = f_in[j, 2] + o[2]
+        if mix_t > 0.0 and mix >= 0:
+            slide_mixtures(lin_in[j], gain, band[mix], band_ok[mix], mix_t, mix_work)
+            for q in range(S):
+                mixed[q] = 1.0 if band_ok[mix, q] else 0.0
+            for q in range(S):   # the edge mixture's features where its table is seen
+                m0 = _mixed_feature(mix_work, q, 0)
+                m1 = _mixed_feature(mix_work, q, 1)
+                m2 = _mixed_feature(mix_work, q, 2)
+                mx = mixed[q] > 0.0
+                a[q] = inside[q] * _offset_agreement(
+                    smp[0, q], smp[1, q], smp[2, q], m0 if mx else f0, m1 if mx else f1,
+                    m2 if mx else f2, inv_var_l, inv_var_c)
+        else:
+            for q in range(S):
+                a[q] = inside[q] * _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1,
+                                                     f2, inv_var_l, inv_var_c)
+        for q in range(S):
+            sums[c, 0, q] += a[q]
+        if pair >= 0:
+            for q in range(S):
+                if band_ok[pair, q]:
+                    sums[c, 2, q] += a[q] * (1.0 - band_a[pair, q])
+    for q in range(S):
+        for term in range(3):
+            for c in range(cells):
+                out[q, term, c] = sums[c, term, q]
+
+
+@njit(parallel=True, fastmath=True, error_model="numpy")
 def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, xy_in, f_in, xy_out, f_out, img1,
                            img2, inv_var_l, inv_var_c, table_out, mix_t, lin_in, offsets,
                            pair_out, cell_in, cell_out, out):  # pragma: no cover - compiled
@@ -617,92 +705,14 @@ def soft_slack_sums_kernel(Ms, ts, K1, D1, K2, D2, shifts, xy_in, f_in, xy_out, 
     (2, N_in) and ``xy_out`` (2, N_out) are their x and y by row;
     ``pair_out`` (N_in,) is each inner point's band point in an outline pair (-1: none),
     ``cell_in`` (N_in,) and ``cell_out`` (N_out,) each point's cell (a pair counts in its
-    inner point's). Colours compared as in :func:`soft_fitness_kernel`; a point's pixel
+    inner point's). Colours compared as in :func:`soft_fitness_terms`; a point's pixel
     moves with a slide by the projection's forward differences over 1 mm (exact at no
     slide, within about 0.002 px at 1 mm), and its slides are sampled together, where the
     image is in cache; the work arrays keep a point's slides side by side and the sums by
-    cell (the inner ring reads its band point's 25 slides at once: with the slides
-    outermost they lay 40 kB apart, and the kernel ran about a fifth slower, the same sums
-    to the bit). The two cameras run on two threads."""
-    n_in = xy_in.shape[1]
-    n_out = xy_out.shape[1]
-    S = shifts.shape[0]
-    cells = out.shape[3]
+    cell (the inner ring reads its band point's 25 slides at once, side by side in
+    memory). The two cameras run on two threads."""
     for cam in prange(2):
-        M = Ms[cam]
-        t = ts[cam]
-        K = K1 if cam == 0 else K2
-        D = D1 if cam == 0 else D2
-        img = img1 if cam == 0 else img2
-        o = offsets[cam]
-        gain = np.empty(3)
-        _light_gain(o, gain)
-        # A point's slides side by side (the inner ring reads its band point's 25 at once),
-        # and the sums by cell: (cell, term, slide).
-        band = np.empty((n_out, S, 3))
-        band_a = np.empty((n_out, S))
-        band_ok = np.empty((n_out, S), dtype=np.bool_)
-        sums = np.zeros((cells, 3, S))
-        # A point's slides by channel (l, a, b rows) and whether each fell inside (1.0 or
-        # 0.0): the samples one slide at a time, everything after them as passes over the
-        # slides that vectorise.
-        smp = np.zeros((3, S))
-        inside = np.empty(S)
-        a = np.empty(S)
-        mix_work = np.empty((4, 3 * S))
-        aff = np.empty((6, max(n_in, n_out)))    # each point's pixel and steps a mm
-        _plane_affines(M, t, K, D, xy_out, aff)
-        for j in range(n_out):
-            _slide_samples(img, aff[0, j], aff[1, j], aff[2, j], aff[3, j], aff[4, j],
-                           aff[5, j], shifts, smp, inside)
-            c = cell_out[j]
-            for q in range(S):
-                band_ok[j, q] = inside[q] > 0.0
-                for k in range(3):
-                    band[j, q, k] = smp[k, q]
-            f0 = f_out[j, 0] + o[0]
-            f1 = f_out[j, 1] + o[1]
-            f2 = f_out[j, 2] + o[2]
-            for q in range(S):
-                a[q] = _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1, f2, inv_var_l,
-                                         inv_var_c) if inside[q] > 0.0 else 1.0
-            for q in range(S):
-                band_a[j, q] = a[q]
-                sums[c, 1, q] += a[q]
-        mixed = np.empty(S)
-        _plane_affines(M, t, K, D, xy_in, aff)
-        for j in range(n_in):
-            _slide_samples(img, aff[0, j], aff[1, j], aff[2, j], aff[3, j], aff[4, j],
-                           aff[5, j], shifts, smp, inside)
-            c = cell_in[j]
-            mix = table_out[j]
-            pair = pair_out[j]
-            f0 = f_in[j, 0] + o[0]
-            f1 = f_in[j, 1] + o[1]
-            f2 = f_in[j, 2] + o[2]
-            if mix_t > 0.0 and mix >= 0:
-                slide_mixtures(lin_in[j], gain, band[mix], band_ok[mix], mix_t, mix_work)
-                for q in range(S):
-                    mixed[q] = 1.0 if band_ok[mix, q] else 0.0
-                for q in range(S):   # the edge mixture's features where its table is seen
-                    m0 = _mixed_feature(mix_work, q, 0)
-                    m1 = _mixed_feature(mix_work, q, 1)
-                    m2 = _mixed_feature(mix_work, q, 2)
-                    mx = mixed[q] > 0.0
-                    a[q] = inside[q] * _offset_agreement(
-                        smp[0, q], smp[1, q], smp[2, q], m0 if mx else f0, m1 if mx else f1,
-                        m2 if mx else f2, inv_var_l, inv_var_c)
-            else:
-                for q in range(S):
-                    a[q] = inside[q] * _offset_agreement(smp[0, q], smp[1, q], smp[2, q], f0, f1,
-                                                         f2, inv_var_l, inv_var_c)
-            for q in range(S):
-                sums[c, 0, q] += a[q]
-            if pair >= 0:
-                for q in range(S):
-                    if band_ok[pair, q]:
-                        sums[c, 2, q] += a[q] * (1.0 - band_a[pair, q])
-        for q in range(S):
-            for term in range(3):
-                for c in range(cells):
-                    out[q, cam, term, c] = sums[c, term, q]
+        _slack_camera(Ms[cam], ts[cam], K1 if cam == 0 else K2, D1 if cam == 0 else D2,
+                      img1 if cam == 0 else img2, offsets[cam], shifts, xy_in, f_in, xy_out,
+                      f_out, inv_var_l, inv_var_c, table_out, mix_t, lin_in, pair_out, cell_in,
+                      cell_out, out[:, cam])

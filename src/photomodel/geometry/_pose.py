@@ -11,10 +11,11 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
+
+from photomodel._jit import njit
 
 
 def rotation_from_eps(eps: ArrayLike) -> NDArray[np.float64]:
@@ -24,15 +25,18 @@ def rotation_from_eps(eps: ArrayLike) -> NDArray[np.float64]:
     populations, about a thousand times a search.
     """
     e = np.asarray(eps, dtype=np.float64)
-    R = _rotations(np.ascontiguousarray(e.reshape(-1, 3)))
+    R = _rotations(np.ascontiguousarray(e.reshape(-1, 3)), 0)
     return R.reshape(e.shape[:-1] + (3, 3))
 
 
-@numba.njit(cache=True, nogil=True)
-def _rotations(e: NDArray[np.float64]) -> NDArray[np.float64]:  # pragma: no cover - numba
+@njit(nogil=True)
+def _rotations(e: NDArray[np.float64], first: int) -> NDArray[np.float64]:  # pragma: no cover
+    """Rotation matrices (N, 3, 3) of the quaternion vector parts in columns ``first`` to
+    ``first + 2`` of ``e`` (N, K): one compiled specialisation for Python's calls and
+    :func:`_maps`' alike."""
     R = np.empty((e.shape[0], 3, 3))
     for i in range(e.shape[0]):
-        x, y, z = e[i, 0], e[i, 1], e[i, 2]
+        x, y, z = e[i, first], e[i, first + 1], e[i, first + 2]
         w = math.sqrt(max(1.0 - (x * x + y * y + z * z), 0.0))
         R[i, 0, 0] = 1 - 2 * (y * y + z * z)
         R[i, 0, 1] = 2 * (x * y - z * w)
@@ -73,13 +77,13 @@ def strained_matrices(poses: ArrayLike, strain: ArrayLike) -> NDArray[np.float64
     return _maps(np.ascontiguousarray(p), np.ascontiguousarray(e.reshape(-1, 3)))
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _maps(p: NDArray[np.float64], e: NDArray[np.float64]
           ) -> NDArray[np.float64]:  # pragma: no cover - numba
     """Maps (N, 4, 4) of pose vectors ``p`` (N, 6) strained by ``e`` (1, 3) or (N, 3): the
-    rotation of :func:`_rotations`, its first two columns times ``I + E``, one pass (a dozen
-    numpy operations took 12 us a call, a few thousand calls a search)."""
-    R = _rotations(p[:, 3:])
+    rotation of :func:`_rotations`, its first two columns times ``I + E``, in one compiled
+    pass (a few thousand calls a search)."""
+    R = _rotations(p, p.shape[1] - 3)    # (not a literal 3: one specialisation for all)
     T = np.zeros((p.shape[0], 4, 4))
     for n in range(p.shape[0]):
         s = e[0] if e.shape[0] == 1 else e[n]
@@ -152,13 +156,12 @@ def facing_pose_vectors(flat: ArrayLike, facing: ArrayLike) -> NDArray[np.float6
     return _facing(np.ascontiguousarray(f), float(w0), float(a), float(b), float(c))
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _facing(f: NDArray[np.float64], w0: float, a: float, b: float, c: float
             ) -> NDArray[np.float64]:  # pragma: no cover - numba
     """:func:`facing_pose_vectors` of flat pose vectors ``f`` (N, 6) and the plane's
-    quaternion ``(w0, a, b, c)``: one pass (a GA population or an evolution strategy's
-    draws, about a hundred calls a search, where numpy's dozen small operations cost 15 us a
-    call)."""
+    quaternion ``(w0, a, b, c)``: one compiled pass (a GA population or an evolution
+    strategy's draws, about a hundred calls a search)."""
     out = np.empty((f.shape[0], 6))
     for i in range(f.shape[0]):
         s = f[i, 5]

@@ -2,19 +2,14 @@
 
 Colour evidence drops models whose colours the images lack (:mod:`._screen`), the rest are
 located with the default ``soft`` method in features computed once (:mod:`._identify`), and
-the best is accepted against the threshold calibrated on simulated scenes and stored with the
-package (:mod:`photomodel.locate._threshold`, ``threshold.json``; ``photomodel experiment
---identify --calibrate`` re-derives it).
+the best is accepted against the threshold calibrated on simulated scenes
+(:mod:`photomodel.locate._threshold`: the library's, the user's or the package's
+``threshold.json``; ``photomodel experiment --identify --calibrate`` re-derives it).
+:class:`Identifier` holds a library prepared for one rig.
 """
 
-from photomodel.identify._identify import (
-    Candidate,
-    IdentifyConfig,
-    IdentifyResult,
-    identify,
-    identify_in_features,
-)
-from photomodel.identify._screen import ScreenConfig, colour_evidence
+import lazy_loader
+
 from photomodel.locate._threshold import (
     THRESHOLD_FILE,
     Threshold,
@@ -23,10 +18,26 @@ from photomodel.locate._threshold import (
     save_threshold,
 )
 
+__getattr__, _dir, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_identifier": ["Identifier"],
+        "_identify": [
+            "Candidate",
+            "IdentifyConfig",
+            "IdentifyResult",
+            "identify",
+            "identify_in_features",
+        ],
+        "_screen": ["ScreenConfig", "colour_evidence"],
+    },
+)
+
 __all__ = [
     "THRESHOLD_FILE",
     "Candidate",
     "IdentifyConfig",
+    "Identifier",
     "IdentifyResult",
     "ScreenConfig",
     "Threshold",
@@ -37,3 +48,7 @@ __all__ = [
     "load_threshold",
     "save_threshold",
 ]
+
+
+def __dir__() -> list[str]:
+    return list(__all__)

@@ -6,8 +6,8 @@ For one stereo pair and a list of photo-models:
    (:class:`~photomodel.fitness.StereoFeatures`), used by every model and stage.
 2. **Drop early** (:func:`~photomodel.identify.colour_evidence`): models whose colours the
    images lack cannot be the answer; the ``max_candidates`` models with the most colour
-   evidence (at least ``min_evidence``) go on. This costs milliseconds per model, where a
-   pose search costs about a second.
+   evidence (at least ``min_evidence``) go on. This costs milliseconds per model, far less
+   than a pose search.
 3. **Locate each candidate** (those whose scan is trusted first; the others only while none
    of those is found: ``trusted_first``) with the default ``soft`` method
    (:func:`~photomodel.locate.locate_in_features`: a correlation scan of flat poses on the
@@ -45,7 +45,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
-from photomodel.fitness import ScanResult, StereoFeatures, scan_flat_poses
+from photomodel.fitness import (
+    PreparedModel,
+    ScanResult,
+    StereoFeatures,
+    as_prepared,
+    scan_flat_poses,
+)
 from photomodel.identify._screen import ScreenConfig, colour_evidence
 from photomodel.locate import LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
@@ -77,7 +83,7 @@ class IdentifyConfig:
         Search the candidates whose scan is trusted (its best peak reaches
         ``ScanConfig.trusted_score``) first, and the others only while none of those reaches
         ``min_score``. An untrusted scan means the model's own colours agree nowhere in the
-        images, and its search then runs the GA (about 0.4 s); under the station's light
+        images, and its search then runs the slower GA; under the station's light
         that is a model that is not there. Under another lamp every scan is untrusted and
         every candidate is searched, as without this.
     """
@@ -162,7 +168,7 @@ class IdentifyResult:
         return 0.0 if self.best is None else self.best.score
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The ``identify --json`` object (DESIGN.md).
+        """The ``identify --json`` object (docs/contracts.md).
 
         Same keys as ``locate --json`` for the best model; when none is on the table,
         ``"model": null``, ``"found": false`` and the pose fields null, with ``score`` (and
@@ -192,7 +198,7 @@ def _model_rng(base: int, name: str, attempt: int) -> np.random.Generator:
 
 
 def identify_in_features(
-    models: Sequence[PhotoModel],
+    models: Sequence[PhotoModel | PreparedModel],
     features: StereoFeatures,
     *,
     config: IdentifyConfig | None = None,
@@ -204,8 +210,9 @@ def identify_in_features(
 
     Parameters
     ----------
-    models : sequence of PhotoModel
-        The library (names should be unique; the first of equal names wins ties).
+    models : sequence of PhotoModel or PreparedModel
+        The library (names should be unique; the first of equal names wins ties); prepared
+        models keep what their searches build (:class:`~photomodel.Identifier`).
     features : StereoFeatures
     config : IdentifyConfig, optional
     space : SearchSpace, optional
@@ -221,11 +228,12 @@ def identify_in_features(
     IdentifyResult
     """
     t0 = time.perf_counter() if t0 is None else t0
+    models = [as_prepared(m) for m in models]
     c = config or IdentifyConfig()
     min_score = load_threshold().min_score if c.min_score is None else c.min_score
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     base = int(np.random.default_rng(rng).integers(0, 2**62))
-    evidence: NDArray[np.float64] = colour_evidence(list(models), features, c.screen)
+    evidence: NDArray[np.float64] = colour_evidence(models, features, c.screen)
     order = np.argsort(-evidence, kind="stable")
     chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= c.min_evidence]
     located: dict[int, LocateResult] = {}

@@ -13,6 +13,7 @@ the same colours (that is the pose search's work), so it ranks and drops, it doe
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -20,8 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter
 
-from photomodel._owned import owned
-from photomodel.fitness import StereoFeatures
+from photomodel.fitness import PreparedModel, StereoFeatures, as_prepared
 from photomodel.fitness._soft import HAND_MM_PER_PX
 from photomodel.image._features import log_opponent
 from photomodel.model import PhotoModel
@@ -67,33 +67,33 @@ def _histogram(features: NDArray[np.float32], config: ScreenConfig,
     return uniform_filter(h, size=3, mode="constant")
 
 
-_MODEL_HIST: dict[int, dict[ScreenConfig, NDArray[np.float64]]] = {}
+def _model_histogram(prepared: PreparedModel, config: ScreenConfig) -> NDArray[np.float64]:
+    """Histogram of the model photo's garment pixels at the scene level's pixel size, kept
+    in the prepared model."""
+    return prepared.kept.get(("screen histogram", config),
+                             lambda: _make_histogram(prepared.model, config))
 
 
-def _model_histogram(model: PhotoModel, config: ScreenConfig) -> NDArray[np.float64]:
-    """Histogram of the model photo's garment pixels at the scene level's pixel size."""
-    cache = owned(_MODEL_HIST, model, dict)
-    if config not in cache:
-        K = np.asarray(model.meta.get("camera_K", [[760.0, 0, 0], [0, 760.0, 0], [0, 0, 1]]))
-        mm_per_px_model = float(model.meta.get("distance_mm", 400.0)) / float(
-            np.sqrt(K[0, 0] * K[1, 1]))
-        scale = mm_per_px_model / (HAND_MM_PER_PX * 2.0**config.level)
-        h, w = model.mask.shape
-        size = (max(1, round(w * scale)), max(1, round(h * scale)))
-        photo = cv2.resize(model.photo_bgr, size, interpolation=cv2.INTER_AREA)
-        cover = cv2.resize(model.mask.astype(np.float32), size, interpolation=cv2.INTER_AREA)
-        feats = log_opponent(photo)
-        cache[config] = _histogram(feats, config, cover.reshape(-1).astype(np.float64))
-    return cache[config]
+def _make_histogram(model: PhotoModel, config: ScreenConfig) -> NDArray[np.float64]:
+    K = np.asarray(model.meta.get("camera_K", [[760.0, 0, 0], [0, 760.0, 0], [0, 0, 1]]))
+    mm_per_px_model = float(model.meta.get("distance_mm", 400.0)) / float(
+        np.sqrt(K[0, 0] * K[1, 1]))
+    scale = mm_per_px_model / (HAND_MM_PER_PX * 2.0**config.level)
+    h, w = model.mask.shape
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    photo = cv2.resize(model.photo_bgr, size, interpolation=cv2.INTER_AREA)
+    cover = cv2.resize(model.mask.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+    feats = log_opponent(photo)
+    return _histogram(feats, config, cover.reshape(-1).astype(np.float64))
 
 
-def colour_evidence(models: list[PhotoModel], features: StereoFeatures,
+def colour_evidence(models: Sequence[PhotoModel | PreparedModel], features: StereoFeatures,
                     config: ScreenConfig | None = None) -> NDArray[np.float64]:
     """Colour evidence of each model in a stereo pair (see the module docstring).
 
     Parameters
     ----------
-    models : list of PhotoModel
+    models : sequence of PhotoModel or PreparedModel
     features : StereoFeatures
         The stereo pair's feature pyramids (the level must exist).
     config : ScreenConfig, optional
@@ -110,7 +110,7 @@ def colour_evidence(models: list[PhotoModel], features: StereoFeatures,
     images = [_histogram(p[level], c) for p in features.pyramids]
     out = np.zeros(len(models))
     for i, model in enumerate(models):
-        m = _model_histogram(model, c)
+        m = _model_histogram(as_prepared(model), c)
         total = float(m.sum())
         if total <= 0:
             continue

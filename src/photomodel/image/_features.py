@@ -21,8 +21,10 @@ from functools import lru_cache
 import cv2
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from numpy.typing import NDArray
+
+from photomodel._jit import njit
 
 __all__ = ["LOG_OFFSET", "feature_pyramid", "linear_intensity",
            "log_opponent"]
@@ -68,11 +70,11 @@ def _gaussian_taps(sigma_px: float) -> NDArray[np.float32]:
     return cv2.getGaussianKernel(size, sigma_px, cv2.CV_32F).ravel().astype(np.float32)
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _log_opponent_kernel(img, lut, out):  # pragma: no cover - compiled
     """``out`` (H, W, 3) float32 = the rows of ``_OPPONENT`` applied to ``lut`` (256,) of
     each channel of ``img`` (H, W, 3) uint8 (B, G, R): one pass over the pixels, rows side
-    by side (cv2.LUT then cv2.transform took 3.5 ms for a 640 x 480 image, this 0.25 ms)."""
+    by side."""
     for r in prange(img.shape[0]):
         for c in range(img.shape[1]):
             lb = lut[img[r, c, 0]]
@@ -82,7 +84,7 @@ def _log_opponent_kernel(img, lut, out):  # pragma: no cover - compiled
                 out[r, c, k] = _OPPONENT[k, 0] * lb + _OPPONENT[k, 1] * lg + _OPPONENT[k, 2] * lr
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _reflect101(i, n):  # pragma: no cover - compiled
     """Index ``i`` reflected into ``0 .. n - 1`` without repeating the edge (OpenCV's
     ``BORDER_REFLECT_101``, ``cv2.GaussianBlur``'s default)."""
@@ -93,7 +95,7 @@ def _reflect101(i, n):  # pragma: no cover - compiled
     return i
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _opponent_row(img, lut, y, out):  # pragma: no cover - compiled
     """Row ``y`` of ``img`` (H, W, 3) uint8 as log-opponent features into ``out`` (3 W,)."""
     for x in range(img.shape[1]):
@@ -104,7 +106,7 @@ def _opponent_row(img, lut, y, out):  # pragma: no cover - compiled
             out[3 * x + k] = _OPPONENT[k, 0] * lb + _OPPONENT[k, 1] * lg + _OPPONENT[k, 2] * lr
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _sum7(s0, s1, s2, s3, s4, s5, s6, step, taps, out):  # pragma: no cover - compiled
     """``out[m]`` = the seven ``taps`` times ``s_i[m + i step]``, summed in the taps' order
     (seven rows of a vertical pass with ``step`` 0, one padded row with ``step`` 3: the
@@ -116,7 +118,7 @@ def _sum7(s0, s1, s2, s3, s4, s5, s6, step, taps, out):  # pragma: no cover - co
                   ) + w6 * s6[m + 6 * step]
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _smoothed_log_opponent(img, lut, taps, chunks, out):  # pragma: no cover - compiled
     """``out`` (H, W, 3) float32 = the log-opponent features of ``img`` (H, W, 3) uint8
     smoothed by the separable kernel ``taps`` (odd size) with reflected borders: what
@@ -124,16 +126,13 @@ def _smoothed_log_opponent(img, lut, taps, chunks, out):  # pragma: no cover - c
 
     The rows in ``chunks`` bands on numba's threads, each keeping the feature rows its
     kernel spans in a ring: every output row is the same sums in the same order on any
-    number of them. OpenCV's blur ran on one thread (0.85 ms for 640 x 480 pixels, this
-    0.5 ms on two). Without ``fastmath`` (here and in :func:`_opponent_row`): with it, this
-    kernel as numba compiled it and as numba loaded it from its cache gave features 1e-7
-    apart (float32 sums contracted differently), so a clean checkout's test process, which
-    compiles, and its experiment workers, which load, disagreed (a score by 4e-9, a
-    flat-peaked pose by 0.11 mm). As fast without it, and as near ``cv2.GaussianBlur``.
+    number of them. Without ``fastmath`` (here and in :func:`_opponent_row`): with it, the
+    kernel as compiled and as loaded from numba's cache can contract the float32 sums
+    differently (features 1e-7 apart), so processes that compile and processes that load it
+    would disagree.
 
     Seven taps (the default 0.7-pixel smoothing) take each output row in one pass, the seven
-    products summed in the taps' order (the same sums to the bit as a pass a tap, which
-    read and wrote the row seven times: 0.87 against 0.61 ms an image)."""
+    products summed in the taps' order (the same sums to the bit as a pass a tap)."""
     H = img.shape[0]
     W = img.shape[1]
     n = taps.shape[0]
@@ -141,46 +140,56 @@ def _smoothed_log_opponent(img, lut, taps, chunks, out):  # pragma: no cover - c
     M = 3 * W
     flat = out.reshape(H, M)
     for chunk in prange(chunks):
-        y0 = chunk * H // chunks
-        y1 = (chunk + 1) * H // chunks
-        ring = np.empty((n, M), dtype=np.float32)     # feature row yy in ring[yy % n]
-        row = np.empty(M + 6 * r, dtype=np.float32)   # a column-smoothed row, r pixels padded
-        mid = row[3 * r:3 * r + M]
-        for yy in range(y0 - r, y0 + r):
-            _opponent_row(img, lut, _reflect101(yy, H), ring[yy % n])
-        for y in range(y0, y1):
-            _opponent_row(img, lut, _reflect101(y + r, H), ring[(y + r) % n])
-            if n == 7:
-                _sum7(ring[(y - 3) % 7], ring[(y - 2) % 7], ring[(y - 1) % 7], ring[y % 7],
-                      ring[(y + 1) % 7], ring[(y + 2) % 7], ring[(y + 3) % 7], 0, taps, mid)
-            else:
-                for i in range(n):
-                    w = taps[i]
-                    src = ring[(y - r + i) % n]
-                    if i == 0:
-                        for m in range(M):
-                            mid[m] = w * src[m]
-                    else:
-                        for m in range(M):
-                            mid[m] += w * src[m]
-            for x in range(1, r + 1):
-                left = _reflect101(-x, W)
-                right = _reflect101(W - 1 + x, W)
-                for c in range(3):
-                    row[3 * (r - x) + c] = mid[3 * left + c]
-                    row[3 * (r + W - 1 + x) + c] = mid[3 * right + c]
-            dst = flat[y]
-            if n == 7:
-                _sum7(row, row, row, row, row, row, row, 3, taps, dst)
-                continue
+        _smooth_rows(img, lut, taps, np.int64(chunk) * H // chunks,
+                     (np.int64(chunk) + 1) * H // chunks, flat)
+
+
+@njit
+def _smooth_rows(img, lut, taps, y0, y1, flat):  # pragma: no cover - compiled
+    """Rows ``y0`` to ``y1`` of :func:`_smoothed_log_opponent`'s output ``flat`` (H, 3 W)."""
+    H = img.shape[0]
+    W = img.shape[1]
+    n = taps.shape[0]
+    r = n // 2
+    M = 3 * W
+    ring = np.empty((n, M), dtype=np.float32)     # feature row yy in ring[yy % n]
+    row = np.empty(M + 6 * r, dtype=np.float32)   # a column-smoothed row, r pixels padded
+    mid = row[3 * r:3 * r + M]
+    for yy in range(y0 - r, y0 + r):
+        _opponent_row(img, lut, _reflect101(yy, H), ring[yy % n])
+    for y in range(y0, y1):
+        _opponent_row(img, lut, _reflect101(y + r, H), ring[(y + r) % n])
+        if n == 7:
+            _sum7(ring[(y - 3) % 7], ring[(y - 2) % 7], ring[(y - 1) % 7], ring[y % 7],
+                  ring[(y + 1) % 7], ring[(y + 2) % 7], ring[(y + 3) % 7], 0, taps, mid)
+        else:
             for i in range(n):
                 w = taps[i]
+                src = ring[(y - r + i) % n]
                 if i == 0:
                     for m in range(M):
-                        dst[m] = w * row[m]
+                        mid[m] = w * src[m]
                 else:
                     for m in range(M):
-                        dst[m] += w * row[3 * i + m]
+                        mid[m] += w * src[m]
+        for x in range(1, r + 1):
+            left = _reflect101(-x, W)
+            right = _reflect101(W - 1 + x, W)
+            for c in range(3):
+                row[3 * (r - x) + c] = mid[3 * left + c]
+                row[3 * (r + W - 1 + x) + c] = mid[3 * right + c]
+        dst = flat[y]
+        if n == 7:
+            _sum7(row, row, row, row, row, row, row, 3, taps, dst)
+            continue
+        for i in range(n):
+            w = taps[i]
+            if i == 0:
+                for m in range(M):
+                    dst[m] = w * row[m]
+            else:
+                for m in range(M):
+                    dst[m] += w * row[3 * i + m]
 
 
 def linear_intensity(features: NDArray[np.floating]) -> NDArray[np.float64]:

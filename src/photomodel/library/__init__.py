@@ -1,14 +1,21 @@
 """Model libraries: a directory of photo-model files with an index (name, size, colours, dates)."""
 
-from photomodel.library._library import (
-    INDEX_NAME,
-    LIBRARY_FORMAT_VERSION,
-    LibraryEntry,
-    LibraryScan,
-    ModelLibrary,
-    Skipped,
-    check_model_name,
-    main_colours,
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_library": [
+            "INDEX_NAME",
+            "LIBRARY_FORMAT_VERSION",
+            "LibraryEntry",
+            "LibraryScan",
+            "ModelLibrary",
+            "Skipped",
+            "check_model_name",
+            "main_colours",
+        ],
+    },
 )
 
 __all__ = [

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -13,10 +13,12 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness import (
+    PreparedModel,
     ScanConfig,
     ScanResult,
     SoftFitness,
     StereoFeatures,
+    as_prepared,
     make_fitness,
     relight_scan,
     scan_flat_poses,
@@ -50,25 +52,88 @@ __all__ = [
     "DEFAULT_MIN_SCORE",
     "PAPER_METHOD",
     "LocateResult",
+    "Method",
+    "PaperMethod",
     "locate",
     "locate_in_features",
     "make_optimizer",
+    "paper_method",
     "soft_score",
 ]
-
-DEFAULT_MIN_SCORE = 0.5
-"""Score from which the garment counts as found with the ``paper`` and ``balanced`` fitness
-(not calibrated). The ``soft`` fitness uses the calibrated threshold of
-:func:`~photomodel.locate.load_threshold`."""
 
 OptimizerName = Literal["ga", "full", "rga", "cma", "de"]
 
 DEFAULT_FITNESS = "soft"
 
-PAPER_METHOD: dict[str, Any] = {
-    "fitness": "paper", "optimizer": "ga", "refine": False, "ga_config": GAConfig.paper()}
-"""Keyword arguments of :func:`locate` that select the paper's method as read here: the
-``paper`` fitness, the plain binary GA without restarts, no local refinement."""
+
+@dataclass(frozen=True)
+class PaperMethod:
+    """The paper's method (sec. 2.5) and its comparison variants: a fitness of
+    :data:`~photomodel.fitness.FITNESS_PRESETS` searched by a global optimiser.
+
+    ``PaperMethod()`` is the paper as read here: the ``paper`` fitness (eq. 9's votes), the
+    binary GA (60 individuals, 6 genes of 12 bits) without restarts, no local refinement.
+
+    Attributes
+    ----------
+    fitness : str
+        A name of :data:`~photomodel.fitness.FITNESS_PRESETS` (``paper``, ``balanced``).
+    optimizer : {"ga", "full", "rga", "cma", "de"}
+        The binary GA, the full grid search, or the comparison optimisers (real-coded GA,
+        CMA-ES, differential evolution).
+    refine : bool
+        Follow the global search with :class:`~photomodel.search.LocalRefine`.
+    ga : GAConfig
+        The binary GA's settings (default ``GAConfig.paper()``).
+    full : FullSearchConfig, optional
+        The grid of ``optimizer="full"``.
+    refine_config : RefineConfig, optional
+    min_score : float
+        Score in [0, 1] from which the garment counts as found (not calibrated).
+    """
+
+    fitness: str = "paper"
+    optimizer: OptimizerName = "ga"
+    refine: bool = False
+    ga: GAConfig = field(default_factory=GAConfig.paper)
+    full: FullSearchConfig | None = None
+    refine_config: RefineConfig | None = None
+    min_score: float = 0.5
+
+    def __post_init__(self) -> None:
+        from photomodel.fitness import FITNESS_PRESETS
+
+        if self.fitness not in FITNESS_PRESETS:
+            raise ValueError(f"fitness: expected one of {sorted(FITNESS_PRESETS)}, "
+                             f"got {self.fitness!r}")
+        if self.optimizer not in ("ga", "full", "rga", "cma", "de"):
+            raise ValueError(f"optimizer: expected 'ga', 'full', 'rga', 'cma' or 'de', "
+                             f"got {self.optimizer!r}")
+        if not 0.0 <= self.min_score <= 1.0:
+            raise ValueError(f"min_score: expected a score in [0, 1], got {self.min_score}")
+
+
+PAPER_METHOD = PaperMethod()
+"""The paper's method as read here (:class:`PaperMethod` with its defaults)."""
+
+Method = Literal["default", "paper"] | PaperMethod
+"""A locate method: ``"default"`` (the ``soft`` fitness searched coarse to fine),
+``"paper"`` (:data:`PAPER_METHOD`) or a :class:`PaperMethod`."""
+
+DEFAULT_MIN_SCORE = PAPER_METHOD.min_score
+"""Score from which the garment counts as found with the paper's method (not calibrated).
+The default method uses the calibrated threshold (:func:`~photomodel.locate.load_threshold`)."""
+
+
+def paper_method(method: Method) -> PaperMethod | None:
+    """The :class:`PaperMethod` that ``method`` names, None for the default method."""
+    if isinstance(method, PaperMethod):
+        return method
+    if method == "default":
+        return None
+    if method == "paper":
+        return PAPER_METHOD
+    raise ValueError(f"method: expected 'default', 'paper' or a PaperMethod, got {method!r}")
 
 
 @dataclass(frozen=True)
@@ -124,7 +189,7 @@ class LocateResult:
         return None if blur is None else float(blur)
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The JSON object of DESIGN.md's ``locate --json`` contract (plus search details)."""
+        """The ``locate --json`` object (docs/contracts.md), plus search details."""
         return {
             "model": self.model,
             "found": self.found,
@@ -170,40 +235,35 @@ def make_optimizer(name: OptimizerName, space: SearchSpace,
 
 
 def locate(
-    model: PhotoModel,
+    model: PhotoModel | PreparedModel,
     rig: StereoRig,
     right_bgr: NDArray[np.uint8],
     left_bgr: NDArray[np.uint8],
     *,
-    optimizer: OptimizerName = "ga",
-    fitness: str = DEFAULT_FITNESS,
-    refine: bool = True,
+    method: Method = "default",
     rng: int | np.random.Generator | None = None,
     space: SearchSpace | None = None,
     min_score: float | None = None,
-    ga_config: GAConfig | None = None,
-    full_config: FullSearchConfig | None = None,
-    refine_config: RefineConfig | None = None,
     progress: Callable[[Optimizer], None] | None = None,
 ) -> LocateResult:
     """Search the pose ``T_cam1_model`` of ``model`` that best explains both images.
 
+    One call of :class:`~photomodel.Locator`; a cell that locates one model in many stereo
+    pairs keeps a ``Locator`` (or passes a :class:`~photomodel.fitness.PreparedModel`), so
+    that the model is prepared once.
+
     Parameters
     ----------
-    model : PhotoModel
+    model : PhotoModel or PreparedModel
     rig : StereoRig
         Camera 1 is the reference (the paper's right camera).
     right_bgr, left_bgr : ndarray (H, W, 3) uint8
         Images of camera 1 and camera 2; sizes are checked against the calibration.
-    optimizer : {"ga", "full"}
-        The paper's binary GA (default) or the full grid search.
-    fitness : {"soft", "paper", "balanced"}
-        ``"soft"`` (default): :class:`~photomodel.fitness.SoftFitness` searched coarse to fine
-        over a feature pyramid (:func:`~photomodel.search.pyramid_search`; ``optimizer``,
-        ``refine`` and the GA settings do not apply). Otherwise a fitness of
-        :data:`photomodel.fitness.FITNESS_PRESETS` searched by ``optimizer``.
-    refine : bool
-        Follow the global search with :class:`~photomodel.search.LocalRefine`.
+    method : {"default", "paper"} or PaperMethod
+        ``"default"``: :class:`~photomodel.fitness.SoftFitness` searched coarse to fine over
+        a feature pyramid (:func:`locate_in_features`). ``"paper"`` or a
+        :class:`PaperMethod`: a fitness of :data:`~photomodel.fitness.FITNESS_PRESETS`
+        searched by a global optimiser.
     rng : int, Generator or None
         Seed of the stochastic search.
     space : SearchSpace, optional
@@ -211,10 +271,10 @@ def locate(
         the rig (``SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)``).
     min_score : float, optional
         Score in [0, 1] from which the garment counts as found. Default: the calibrated
-        threshold (:func:`~photomodel.locate.load_threshold`) for ``soft``,
-        :data:`DEFAULT_MIN_SCORE` otherwise.
+        threshold (:func:`~photomodel.locate.load_threshold`) for the default method, the
+        :class:`PaperMethod`'s ``min_score`` otherwise.
     progress : callable, optional
-        Called with the optimiser after each generation / batch.
+        Called with the optimiser after each generation (paper methods).
 
     Returns
     -------
@@ -225,60 +285,49 @@ def locate(
     t0 = time.perf_counter()
     space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
     gen = np.random.default_rng(rng)
-    if fitness == "soft":
-        return _locate_soft(model, rig, right_bgr, left_bgr, space, gen, min_score, t0)
-    objective = make_fitness(fitness, model, rig, right_bgr, left_bgr)
-    opt = make_optimizer(optimizer, space, gen, ga_config, full_config)
-    if refine:
-        opt = GlobalThenLocal(opt, space, refine_config, gen)
+    paper = paper_method(method)
+    if paper is None:
+        features = StereoFeatures(rig, right_bgr, left_bgr)
+        return locate_in_features(model, features, space=space, rng=gen, min_score=min_score,
+                                  t0=t0)
+    bare = model.model if isinstance(model, PreparedModel) else model
+    objective = make_fitness(paper.fitness, bare, rig, right_bgr, left_bgr)
+    opt = make_optimizer(paper.optimizer, space, gen, paper.ga, paper.full)
+    if paper.refine:
+        opt = GlobalThenLocal(opt, space, paper.refine_config, gen)
     result = run_search(opt, objective, progress)
     seconds = time.perf_counter() - t0
     T = pose_vectors_to_matrices(result.x)[0]
     score = objective.score(result.fitness)
-    threshold = DEFAULT_MIN_SCORE if min_score is None else min_score
-    return LocateResult(model.name, bool(score >= threshold), T, float(result.fitness), score,
+    threshold = paper.min_score if min_score is None else min_score
+    return LocateResult(bare.name, bool(score >= threshold), T, float(result.fitness), score,
                         seconds, result)
 
 
-def _locate_soft(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
-                 left_bgr: NDArray[np.uint8], space: SearchSpace, rng: np.random.Generator,
-                 min_score: float | None, t0: float) -> LocateResult:
-    """The ``soft`` fitness searched coarse to fine (:func:`~photomodel.search.pyramid_search`)."""
-    features = StereoFeatures(rig, right_bgr, left_bgr)
-    return locate_in_features(model, features, space=space, rng=rng, min_score=min_score, t0=t0)
-
-
 COARSE_SCAN = ScanConfig(level=4, detail_level=3, theta_step_deg=8.0, rank_margin=0.15)
-"""The first scan of :func:`locate_in_features`: level 4 with level 3's sample points (a
-third of level 3's scan time); level 3's scan follows only when it is not trusted or the search
-from its peaks scores under :data:`COARSE_MIN_SCORE` (or the threshold, where higher).
+"""The first scan of :func:`locate_in_features`: level 4 with level 3's sample points (about
+a third of level 3's scan time); level 3's scan follows only when it is not trusted or the
+search from its peaks scores under :data:`COARSE_MIN_SCORE` (or the threshold, where higher).
 
 Its angles lie 8 degrees apart (level 3's: 4), and it keeps the hypotheses within 0.15 of the
 best one's level-3 fitness (level 3's: 0.3): level 4's pixel is 16 mm on the garment, so 4
 degrees are half a pixel at 100 mm from the centre and the evolution strategy on level 3 walks
-them; each hypothesis dropped is one such walk less. On 192 scenes (16 conditions, trial 1),
-each scene run both ways in turn: 192/192 either way, median 52.0 -> 49.3 ms a pair
-(per-scene ratio 0.92), pose evaluations 1085 -> 806 a scene, 6 poses moved by 0.05-0.25
-mm.
+them; each hypothesis dropped is one such walk less.
 
 When it is not trusted (under another lamp or exposure the garment's own colours agree
 nowhere), it is relit as level 3's is (``relight``: the scene colours' two likeliest light
-offsets, :func:`~photomodel.fitness.relight_scan`) before level 3 is scanned: dim and
-warm-light scenes scanned four times (level 4, level 3 and level 3 relit twice) and now
-mostly twice. 96 dim, warm-light, bright and cool-light scenes (trials 1-2), each both ways in
-turn: 96/96 either way, the same fitness, per-scene median time 81 -> 49 ms (dim) and 92 ->
-56 ms (warm light), bright and cool light the same."""
+offsets, :func:`~photomodel.fitness.relight_scan`) before level 3 is scanned, so that a dim or
+warm-light scene is mostly scanned twice rather than four times. See docs/method/scan.md."""
 
 COARSE_MIN_SCORE = 0.6
 """The score from which the search from :data:`COARSE_SCAN`'s peaks ends the work (or the
-threshold, where higher). Level 4's peaks lie up to half its pixel (7 mm) off, and a striped
-print (No.11, stripes about 20 mm apart) ended one stripe off in 11 of 1000 paper trials at
-scores 0.47-0.54, over the threshold (0.40), where its true pose scores 0.86-0.88; below
-this bar level 3's scan and search follow and the better score wins."""
+threshold, where higher); below it level 3's scan and search follow and the better score
+wins. Level 4's peaks lie up to half its pixel (7 mm) off, so a striped print can end one
+stripe off at a score above the found threshold yet well below its true pose's."""
 
 
 def locate_in_features(
-    model: PhotoModel,
+    model: PhotoModel | PreparedModel,
     features: StereoFeatures,
     *,
     space: SearchSpace | None = None,
@@ -290,6 +339,7 @@ def locate_in_features(
     second_look: bool = False,
     pyramid: PyramidConfig | None = None,
     coarse_scan: ScanConfig | None = COARSE_SCAN,
+    seeds: Sequence[NDArray[np.float64]] | None = None,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -345,6 +395,9 @@ def locate_in_features(
         when that scores at least ``min_score`` and :data:`COARSE_MIN_SCORE` it is the
         result. Otherwise the above follows, and the result is the best of every search.
         None: no coarse scan.
+    seeds : sequence of ndarray (6,), optional
+        Pose vectors near the answer (a tracker's last pose): one search from these, at
+        ``pyramid``'s coarse level, and no scan.
 
     Returns
     -------
@@ -353,6 +406,7 @@ def locate_in_features(
     from photomodel.search import PyramidResult, pyramid_search
 
     t0 = time.perf_counter() if t0 is None else t0
+    model = as_prepared(model)
     if retries < 0:
         raise ValueError(f"retries: expected >= 0, got {retries}")
     if min_score is None:
@@ -376,14 +430,16 @@ def locate_in_features(
         terms = score_terms(fitness_at(0, 0.0, attempt.optics_blur_mm), _affine(attempt))
         attempts.append((attempt, terms.score, terms.edge_evidence))
 
-    if scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
+    if seeds is not None:
+        search([np.asarray(s, dtype=np.float64) for s in seeds], config)
+    elif scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
         first = scan_flat_poses(model, features, space.lower, space.upper, coarse_scan)
         if not first.trusted and coarse_scan.relight:
             first = relight_scan(model, features, space.lower, space.upper, coarse_scan,
                                  keep=first) or first
         if first.trusted and not second_look:
             search(list(first.poses), config)
-    if not attempts or attempts[-1][1] < max(min_score, COARSE_MIN_SCORE):
+    if seeds is None and (not attempts or attempts[-1][1] < max(min_score, COARSE_MIN_SCORE)):
         if scan is None:
             scan = scan_flat_poses(model, features, space.lower, space.upper)
         relit = not scan.trusted
@@ -426,7 +482,7 @@ def soft_score(fitness: float, edge_evidence: float) -> float:
     around it; the outline evidence, how much of the outline shows as an edge. A garment
     half hidden by a gripper keeps a sharp visible outline (fitness 0.3, evidence 0.5); a
     plain model laid in a region of about its colour agrees inside but shows no outline
-    (fitness 0.3-0.4, evidence 0.2-0.3). On 48 + 24 calibration scenes the fitness alone
-    separated positives from negatives by 0.47 against 0.33, the sum by 0.93 against 0.59.
+    (fitness 0.3-0.4, evidence 0.2-0.3): the sum separates the two where the fitness alone
+    does not.
     """
     return 0.5 * (float(np.clip(fitness, 0.0, 1.0)) + float(np.clip(edge_evidence, 0.0, 1.0)))

@@ -6,14 +6,17 @@ the score reaches ``min_score``. The number is not chosen in the code:
 library garment (*positives*) and the best score of any model in scenes that show none
 (*negatives*: empty tables, other garments and objects), and puts the threshold where it
 separates them best under a cap on false acceptance. ``photomodel experiment --identify
---calibrate`` (:mod:`photomodel.experiments._identify`) runs it and writes ``threshold.json``
-beside this module with the command, seed, counts and commit, which :func:`load_threshold`
-reads.
+--calibrate`` (:mod:`photomodel.experiments._identify`) runs it and writes a threshold file
+(the command, seed, counts and commit with it) to the user's file, :func:`user_threshold_path`,
+or where ``--threshold-file`` says; the package's own file is only read.
+
+Which file applies (:func:`threshold_path`): one given explicitly; else ``threshold.json`` in
+the model library's folder (for ``identify``); else the user's file when it exists; else the
+default shipped with the package.
 """
 
 from __future__ import annotations
 
-import functools
 import json
 import os
 from dataclasses import dataclass, field
@@ -27,10 +30,10 @@ from numpy.typing import ArrayLike
 from photomodel.errors import InputError
 
 __all__ = ["THRESHOLD_FILE", "Threshold", "calibrate_threshold", "load_threshold",
-           "save_threshold"]
+           "save_threshold", "threshold_path", "user_threshold_path"]
 
 THRESHOLD_FILE = "threshold.json"
-"""Name of the package data file holding the calibrated threshold."""
+"""Name of a threshold file: the package's default, the user's, a model library's."""
 
 
 @dataclass(frozen=True)
@@ -113,35 +116,48 @@ def calibrate_threshold(positives: ArrayLike, negatives: ArrayLike, *,
     return round(float(t), 4), stats
 
 
-@functools.cache
-def _data_path() -> Path:
-    """The package data file's path, found once (``importlib.resources`` took 0.4 ms a call,
-    and ``locate`` asks for it with every stereo pair)."""
+def _package_path() -> Path:
+    """The default threshold file shipped with the package (read only)."""
     return Path(str(resources.files("photomodel.locate").joinpath(THRESHOLD_FILE)))
 
 
-_READ: dict[Path, tuple[tuple[int, int, int], str]] = {}
-"""Each threshold file's text when last read, by path, with its (inode, size, mtime_ns)."""
+def user_threshold_path() -> Path:
+    """The user's threshold file: ``$PHOTOMODEL_THRESHOLD`` when set, else
+    ``$XDG_CONFIG_HOME/photomodel/threshold.json`` (``~/.config/photomodel/threshold.json``)."""
+    explicit = os.environ.get("PHOTOMODEL_THRESHOLD")
+    if explicit:
+        return Path(explicit)
+    config = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(config) / "photomodel" / THRESHOLD_FILE
 
 
-def load_threshold(path: str | os.PathLike[str] | None = None) -> Threshold:
-    """Read a threshold file (default: the calibrated one shipped with the package).
+def threshold_path(path: str | os.PathLike[str] | None = None,
+                   library: str | os.PathLike[str] | None = None) -> Path:
+    """The threshold file that applies (see the module docstring): ``path`` when given, else
+    ``library``'s ``threshold.json`` when it exists, else the user's file when it exists,
+    else the package's default."""
+    if path is not None:
+        return Path(path)
+    if library is not None and (Path(library) / THRESHOLD_FILE).is_file():
+        return Path(library) / THRESHOLD_FILE
+    user = user_threshold_path()
+    return user if user.is_file() else _package_path()
 
-    A file read before is read again only when its size, time or inode changed (a new
-    calibration written by :func:`save_threshold`); ``locate`` asks for it with every pair.
+
+def load_threshold(path: str | os.PathLike[str] | None = None, *,
+                   library: str | os.PathLike[str] | None = None) -> Threshold:
+    """Read the threshold file that applies (:func:`threshold_path`).
 
     Raises
     ------
     InputError
         Missing or malformed file.
     """
-    p = Path(path) if path is not None else _data_path()
+    p = threshold_path(path, library)
     try:
-        st = p.stat()
-        key = (st.st_ino, st.st_size, st.st_mtime_ns)
-        if p not in _READ or _READ[p][0] != key:
-            _READ[p] = (key, p.read_text())
-        data = json.loads(_READ[p][1])
+        data = json.loads(p.read_text())
+        if not isinstance(data, dict):
+            raise ValueError("expected a JSON object")
         return Threshold(float(data["min_score"]), dict(data.get("metadata", {})))
     except FileNotFoundError:
         raise InputError(p, "threshold file not found") from None
@@ -150,8 +166,15 @@ def load_threshold(path: str | os.PathLike[str] | None = None) -> Threshold:
 
 
 def save_threshold(threshold: Threshold, path: str | os.PathLike[str] | None = None) -> Path:
-    """Write ``threshold`` atomically (default: the package data file)."""
-    p = Path(path) if path is not None else _data_path()
+    """Write ``threshold`` atomically to ``path`` (default: :func:`user_threshold_path`;
+    never the package's own file)."""
+    p = Path(path) if path is not None else user_threshold_path()
+    if p.resolve() == _package_path().resolve():
+        raise InputError(p, "is the package's default threshold; write to a user file")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(p, f"cannot create its folder ({exc.strerror})") from None
     tmp = p.with_name(f".{p.name}.tmp")
     try:
         tmp.write_text(json.dumps({"min_score": threshold.min_score,

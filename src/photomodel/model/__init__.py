@@ -1,14 +1,23 @@
 """Photo-models: generation from a photo (paper sec. 2.2), the model file, the preview."""
 
-from photomodel.model._build import BuildConfig, BuildResult, build_photo_model
-from photomodel.model._photomodel import FORMAT_VERSION, PhotoModel, load_model, save_model
-from photomodel.model._preview import render_preview
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_build": ["BuildResult", "build_model", "build_photo_model"],
+        "_config": ["BuildConfig"],
+        "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
+        "_preview": ["render_preview"],
+    },
+)
 
 __all__ = [
     "FORMAT_VERSION",
     "BuildConfig",
     "BuildResult",
     "PhotoModel",
+    "build_model",
     "build_photo_model",
     "load_model",
     "render_preview",

@@ -15,11 +15,8 @@ Steps, as in the paper, with the choices it leaves open written down:
    and its holes are filled.
    Its outline is then moved to where the photo is half garment, half plane (``mixing_edge``;
    :func:`_mixing_edge`): the thresholds put a grey or dark garment's edge where the mix of
-   garment and green is past half garment, and the model came out a fraction of a pixel too
-   small on every side. On 12 paper scenes each (seed 0), the navy trousers' mean depth
-   error went from -0.31 to +0.02 mm (std x 0.06 -> 0.03 mm), the small T-shirt's std y from
-   0.029 to 0.008 mm, the grey sock's mean depth error from -1.78 to -1.31 mm (16 scenes);
-   192 mixed scenes: 189 against 188 successes, median position error 0.31 -> 0.18 mm.
+   garment and green is past half garment, so the model would come out a fraction of a pixel
+   too small on every side (and be located too near).
 5. Pixels become millimetres on the plane through the model camera's intrinsics *and
    distortion* (exact inverse) and the camera-to-plane distance; the model frame's origin is the
    silhouette's area centroid on the plane (each pixel weighted by its area on the plane).
@@ -30,14 +27,11 @@ Steps, as in the paper, with the choices it leaves open written down:
    ``band_gap_mm + step_mm``, ... up to ``band_gap_mm + band_width_mm``: the band that
    envelops the outline.
 
-Defaults. The hand cameras see the table at about 1.2 px/mm (800 px focal length, 685 mm),
-so ``step_mm = 3`` puts neighbouring samples about 3.5 px apart: distinct pixels, a mid-size
-garment gets 2000-4000 S_in points, and the fitness of a 60-individual population stays
-below a millisecond. The outline ring is inset by 1.5 mm (about 2 px in the hand images),
-enough to stay inside the garment through the scene's blur, and the band starts 1.5 mm
-outside it for the same reason; its 6 mm width (three rings) is about as wide as the pose
-errors the search must still correct at the end, so a model shrunk or shifted by a few mm
-finds garment in its band and is penalised.
+Defaults (reasoning in docs/method/build.md). The hand cameras see the table at about
+1.2 px/mm, so ``step_mm = 3`` puts neighbouring samples about 3.5 px apart (2000-4000 S_in
+points for a mid-size garment). The outline ring is inset, and the band starts, 1.5 mm (about
+2 px) from the outline, to stay on the right side of it through the scene's blur; the band's
+6 mm width is about as wide as the pose errors the search must still correct at the end.
 """
 
 from __future__ import annotations
@@ -54,33 +48,10 @@ from numpy.typing import NDArray
 from photomodel.camera import PinholeCamera
 from photomodel.errors import InputError, NoGarmentError
 from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg
+from photomodel.model._config import BuildConfig
 from photomodel.model._photomodel import PhotoModel
 
-__all__ = ["BuildConfig", "BuildResult", "build_photo_model"]
-
-
-@dataclass(frozen=True)
-class BuildConfig:
-    """Settings of photo-model generation (see the module docstring for the defaults)."""
-
-    hue_threshold_deg: float = 30.0
-    achromatic_fraction: float = 0.4
-    dark_fraction: float = 0.4
-    step_mm: float = 3.0
-    edge_inset_mm: float = 1.5
-    band_gap_mm: float = 1.5
-    band_width_mm: float = 6.0
-    smooth_sigma_px: float = 1.0
-    min_area_mm2: float = 400.0
-    crop_margin_px: int = 8
-    mixing_edge: bool = True
-
-    def __post_init__(self) -> None:
-        for key, value in asdict(self).items():
-            if not np.isfinite(value) or value < 0:
-                raise ValueError(f"{key}: expected a non-negative number, got {value}")
-        if self.step_mm <= 0:
-            raise ValueError(f"step_mm: expected a positive number, got {self.step_mm}")
+__all__ = ["BuildConfig", "BuildResult", "build_model", "build_photo_model"]
 
 
 @dataclass(frozen=True)
@@ -262,8 +233,8 @@ def _mixing_edge(mask: NDArray[np.uint8], photo: NDArray[np.uint8],
     (both smoothed alike, so a symmetric blur keeps the half-way point on the true edge).
     Pixels where the two colours differ by less than ``min_contrast`` grey levels keep the
     thresholds' answer. The hue and saturation thresholds put a grey sock's edge where the
-    mix is about 60 % sock (a grey-green mix keeps the plane's hue and saturation longer):
-    its model was 0.3 % too small, and ``locate`` put it 1.7 mm too near.
+    mix is about 60 % sock (a grey-green mix keeps the plane's hue and saturation longer),
+    which makes the model too small and places it too near.
     """
     dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
@@ -359,3 +330,33 @@ def _resample_closed(points: NDArray[np.float64], step: float) -> NDArray[np.flo
     n = int(np.floor(total / step))
     targets = np.arange(n) * (total / n)
     return np.column_stack([np.interp(targets, s, closed[:, k]) for k in range(3)])
+
+
+def build_model(
+    photo_bgr: NDArray[np.uint8],
+    background_bgr: NDArray[np.uint8],
+    camera: PinholeCamera,
+    distance_mm: float = 400.0,
+    *,
+    name: str = "garment",
+    config: BuildConfig | None = None,
+) -> PhotoModel:
+    """The photo-model of :func:`build_photo_model` (without its build diagnostics).
+
+    Parameters
+    ----------
+    photo_bgr, background_bgr : ndarray (H, W, 3) uint8
+        The garment on the plane, and the plane alone, from the same fixed camera (BGR).
+    camera : PinholeCamera
+        The model station's camera (:func:`~photomodel.load_camera`).
+    distance_mm : float
+        Distance from the camera centre to the plane along the optical axis, mm.
+    name : str
+    config : BuildConfig, optional
+
+    Returns
+    -------
+    PhotoModel
+    """
+    return build_photo_model(photo_bgr, background_bgr, camera, distance_mm, name=name,
+                             config=config).model

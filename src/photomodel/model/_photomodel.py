@@ -15,7 +15,7 @@ array                     shape       meaning
 ``meta``                  ()          JSON string: name, version, camera, settings, size, date
 ========================  ==========  =====================================================
 
-Model frame (DESIGN.md): origin at the area centroid of the silhouette on the garment plane,
+Model frame (docs/contracts.md): origin at the area centroid of the silhouette on the garment plane,
 x along the model photo's columns, y along its rows, z along the model camera's viewing
 direction (into the plane); the garment is flat, so every point has z = 0.
 """
@@ -94,10 +94,17 @@ class PhotoModel:
 
 
 def save_model(model: PhotoModel, path: str | os.PathLike[str]) -> Path:
-    """Write ``model`` to ``path`` (``.npz`` appended if missing), atomically."""
+    """Write ``model`` to exactly ``path`` (whatever its ending), atomically.
+
+    The file is a NumPy ``.npz`` archive (module docstring) whatever it is called; an
+    existing file is replaced, an existing directory is an error.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a directory, or its folder cannot be created.
+    """
     p = Path(path)
-    if p.suffix != ".npz":
-        p = p.with_name(p.name + ".npz")
     if p.is_dir():
         raise InputError(p, "is a directory; give a model file name")
     try:

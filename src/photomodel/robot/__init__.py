@@ -1,63 +1,70 @@
-"""Robot side of the cell (issue 7): the PA10-7C's kinematics, hand-eye, pick-and-place plans.
+"""Robot side of the cell: the PA10-7C's kinematics, hand-eye, pick-and-place plans.
 
-Frames (DESIGN.md): ``base`` (the arm's, z up), ``hand`` (tool flange), ``tcp`` (gripper),
+Frames (docs/contracts.md): ``base`` (the arm's, z up), ``hand`` (tool flange), ``tcp`` (gripper),
 ``cam1``, ``model``; ``T_a_b`` maps b to a; mm and radians inside, ``_deg`` at the edge.
 ``T_base_model = T_base_hand(q) @ T_hand_cam1 @ T_cam1_model``.
 """
 
-from photomodel.robot._animate import ANIMATION_SUFFIXES, animate_plan, check_animation_path
-from photomodel.robot._arm import ARM_FILES, ArmModel, available_link_sets, load_arm
-from photomodel.robot._cell import (
-    CellConfig,
-    CellReport,
-    CellSetup,
-    CycleOutcome,
-    default_hand_eye,
-    make_cell,
-    photo_configuration,
-    run_cell,
-    run_cycle,
-    simulated_hand_eye,
-)
-from photomodel.robot._handeye import (
-    HAND_EYE_METHODS,
-    Chessboard,
-    HandEyePairs,
-    HandEyeResult,
-    base_from_camera,
-    calibrate_hand_eye,
-    chessboard_pose,
-    hand_eye_error,
-    load_hand_eye,
-    load_hand_eye_pairs,
-    save_hand_eye,
-)
-from photomodel.robot._kinematics import (
-    IKResult,
-    IKSettings,
-    forward_kinematics,
-    inverse_kinematics,
-    jacobian,
-    joint_frames,
-    pose_error,
-)
-from photomodel.robot._pick import (
-    PickResult,
-    grasp_point_from_photo_px,
-    hand_pose_from_xyz_rpy,
-    joints_for_hand_pose,
-    pick,
-    write_json_atomic,
-)
-from photomodel.robot._plan import (
-    CellLayout,
-    Gripper,
-    PickPlan,
-    PickSettings,
-    UnreachableError,
-    Waypoint,
-    grasp_pose,
-    plan_pick,
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_animate": ["ANIMATION_SUFFIXES", "animate_plan", "check_animation_path"],
+        "_arm": ["ARM_FILES", "ArmModel", "available_link_sets", "load_arm"],
+        "_cell": [
+            "CellConfig",
+            "CellReport",
+            "CellSetup",
+            "CycleOutcome",
+            "default_hand_eye",
+            "make_cell",
+            "photo_configuration",
+            "run_cell",
+            "run_cycle",
+            "simulated_hand_eye",
+        ],
+        "_handeye": [
+            "HAND_EYE_METHODS",
+            "Chessboard",
+            "HandEyePairs",
+            "HandEyeResult",
+            "base_from_camera",
+            "calibrate_hand_eye",
+            "chessboard_pose",
+            "hand_eye_error",
+            "load_hand_eye",
+            "load_hand_eye_pairs",
+            "save_hand_eye",
+        ],
+        "_kinematics": [
+            "IKResult",
+            "IKSettings",
+            "forward_kinematics",
+            "inverse_kinematics",
+            "jacobian",
+            "joint_frames",
+            "pose_error",
+        ],
+        "_pick": [
+            "PickResult",
+            "grasp_point_from_photo_px",
+            "hand_pose_from_xyz_rpy",
+            "joints_for_hand_pose",
+            "pick",
+            "write_json_atomic",
+        ],
+        "_plan": [
+            "CellLayout",
+            "Gripper",
+            "PickPlan",
+            "PickSettings",
+            "UnreachableError",
+            "Waypoint",
+            "grasp_pose",
+            "plan_pick",
+        ],
+    },
 )
 
 __all__ = [

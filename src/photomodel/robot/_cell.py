@@ -1,6 +1,6 @@
 """The simulated cell end to end: model station, hand cameras on the PA10, locate, plan, check.
 
-Set-up (frames as DESIGN.md; lengths in mm):
+Set-up (frames as docs/contracts.md; lengths in mm):
 
 - The arm's base stands on the floor of the cell; the work table's top (``table``) lies at
   :attr:`CellLayout.table_centre_mm`, the box at :attr:`CellLayout.box_centre_mm`.
@@ -156,8 +156,8 @@ class CellConfig:
         PA10 link lengths (default: the data file's).
     hand_eye : {"calibrated", "true"}
         Plan with a simulated calibration (default) or with the true mount.
-    fitness : str
-        ``locate``'s fitness.
+    method : {"default", "paper"}
+        ``locate``'s method.
     """
 
     orders: int = 10
@@ -167,7 +167,7 @@ class CellConfig:
     tolerance_mm: float = 10.0
     link_set: str | None = None
     hand_eye: str = "calibrated"
-    fitness: str = "soft"
+    method: str = "default"
     layout: CellLayout = field(default_factory=CellLayout)
     pick: PickSettings = field(default_factory=PickSettings)
 
@@ -254,7 +254,8 @@ def run_cycle(config: CellConfig, setup: CellSetup, index: int) -> CycleOutcome:
                           parse_conditions(config.condition),
                           scene_rng(config.seed, "cell", garment, index))
     assert shot.T_cam1_model is not None
-    result = locate(model, setup.rig, shot.right_bgr, shot.left_bgr, fitness=config.fitness,
+    result = locate(model, setup.rig, shot.right_bgr, shot.left_bgr,
+                    method=config.method,  # type: ignore[arg-type]
                     rng=scene_rng(config.seed, "cell-search", garment, index))
     T_base_hand = forward_kinematics(setup.arm, setup.q_photo)
     T_true = T_base_hand @ setup.T_hand_cam1_true @ shot.T_cam1_model

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.geometry import make_transform
-from photomodel.locate import LocateResult, locate
+from photomodel.locate import LocateResult, Method, locate
 from photomodel.model import PhotoModel
 from photomodel.robot._arm import ArmModel
 from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
@@ -102,7 +102,7 @@ def pick(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
          left_bgr: NDArray[np.uint8], arm: ArmModel, q: ArrayLike,
          T_hand_cam1: NDArray[np.float64], *, layout: CellLayout | None = None,
          settings: PickSettings | None = None, rng: int = 0,
-         fitness: str = "soft") -> PickResult:
+         method: Method = "default") -> PickResult:
     """Locate ``model`` in the stereo pair taken at joints ``q`` (n,) rad and plan its pick.
 
     Raises
@@ -113,7 +113,7 @@ def pick(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
         The plan cannot be executed within the joint limits.
     """
     q_arr = arm.check_joints(q, "--joints-deg")
-    located = locate(model, rig, right_bgr, left_bgr, fitness=fitness, rng=rng)
+    located = locate(model, rig, right_bgr, left_bgr, method=method, rng=rng)
     if not located.found:
         raise PhotomodelError(f"{model.name}: not found in the stereo pair (score "
                               f"{located.score:.2f}); nothing to pick")

@@ -1,7 +1,9 @@
 """Pose search behind one ask/tell interface.
 
-The paper's binary GA and full (grid) search, and for comparison a real-coded GA, CMA-ES
-with IPOP restarts and differential evolution.
+The paper's binary GA and full (grid) search; for comparison a real-coded GA, CMA-ES with
+IPOP restarts (the ``cma`` package, the ``compare`` extra) and differential evolution; and
+the default method's coarse-to-fine search (:func:`pyramid_search`) with its local
+refinements (:class:`LocalRefine`, :func:`gauss_newton_refine`).
 """
 
 from photomodel.search._base import Optimizer, SearchResult, run_search
@@ -12,10 +14,9 @@ from photomodel.search._ga import BinaryGA, GAConfig
 from photomodel.search._gauss_newton import (
     GaussNewtonConfig,
     NormalEquationsFitness,
-    ResidualFitness,
+    TransformFitness,
     gauss_newton_refine,
 )
-from photomodel.search._localcma import LocalCMA, LocalCMAConfig
 from photomodel.search._pyramid import PyramidConfig, PyramidResult, pyramid_search
 from photomodel.search._realga import RealGA, RealGAConfig
 from photomodel.search._refine import GlobalThenLocal, LocalRefine, RefineConfig
@@ -37,8 +38,6 @@ __all__ = [
     "GAConfig",
     "GaussNewtonConfig",
     "GlobalThenLocal",
-    "LocalCMA",
-    "LocalCMAConfig",
     "LocalRefine",
     "Optimizer",
     "PyramidConfig",
@@ -47,9 +46,9 @@ __all__ = [
     "RealGAConfig",
     "RefineConfig",
     "NormalEquationsFitness",
-    "ResidualFitness",
     "SearchResult",
     "SearchSpace",
+    "TransformFitness",
     "gauss_newton_refine",
     "pyramid_search",
     "run_search",

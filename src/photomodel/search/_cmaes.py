@@ -12,26 +12,46 @@ fitness. The best pose over all runs is the result. ``maxfevals`` bounds the who
 search, restarts included.
 
 Randomness: every sample comes from this object's generator (``cma``'s ``randn`` option),
-and ``cma``'s ``seed`` option is ``nan`` ("do nothing"). A numeric ``seed`` would make
-``cma`` reseed numpy's global generator, a process-wide side effect under which two
-strategies run side by side would no longer repeat their searches.
+and ``cma``'s ``seed`` option is ``nan`` ("do nothing"): a numeric ``seed`` would reseed
+numpy's global generator, a process-wide side effect.
+
+``cma`` is imported when a strategy is built (:func:`load_cma`), never with this module;
+the ``compare`` extra installs it.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
-import cma
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel.errors import InputError
 from photomodel.search._base import SearchResult, _Tracker
 from photomodel.search._space import SearchSpace
 from photomodel.search._unit import UnitBox
 
-__all__ = ["CMAConfig", "CMAES"]
+if TYPE_CHECKING:
+    import cma
+
+__all__ = ["CMAConfig", "CMAES", "load_cma"]
+
+CMA_MISSING = "needs the 'cma' package: pip install 'photomodel[compare]'"
+"""The problem an :class:`~photomodel.errors.InputError` names when ``cma`` is missing."""
+
+
+def load_cma(source: str = "--optimizer cma") -> ModuleType:
+    """The ``cma`` module, imported on first use; an :class:`~photomodel.errors.InputError`
+    naming ``source`` (what asked for CMA-ES) and the extra that installs it where it is
+    missing."""
+    try:
+        import cma
+    except ImportError:
+        raise InputError(source, CMA_MISSING) from None
+    return cma
 
 _CMA_REASONS = {
     "maxfevals": "evaluation budget spent",
@@ -131,11 +151,17 @@ class CMAES:
     sigma0 : array_like (6,), optional
         Initial step per gene of the first run (mm, eps), only with ``x0``; default a tenth
         of each gene's range. Without ``x0`` the first run uses ``config.sigma0``.
+
+    Raises
+    ------
+    InputError
+        Where the ``cma`` package is not installed (``--optimizer cma``).
     """
 
     def __init__(self, space: SearchSpace, config: CMAConfig | None = None,
                  rng: int | np.random.Generator | None = None,
                  x0: ArrayLike | None = None, sigma0: ArrayLike | None = None) -> None:
+        self._cma = load_cma()
         self.space = space
         self.config = c = config or CMAConfig()
         self.rng = np.random.default_rng(rng)
@@ -168,7 +194,7 @@ class CMAES:
             "verb_log": 0,
             "verb_disp": 0,
         }
-        return cma.CMAEvolutionStrategy(np.clip(u0, 0.0, 1.0).tolist(), scale, options)
+        return self._cma.CMAEvolutionStrategy(np.clip(u0, 0.0, 1.0).tolist(), scale, options)
 
     def _randn(self, *shape: int) -> NDArray[np.float64]:
         """Standard normal samples for ``cma``, from this optimiser's generator."""

@@ -1,24 +1,22 @@
 """Gauss-Newton's iterations in numba, for a fitness that gives its numba kernels.
 
-:func:`~photomodel.search.gauss_newton_refine` with the analytic Jacobian spent about 0.2 ms
-of Python an iteration (pose maps, the fitness's wrappers, the damped solve, clipping, the
-strain's prior) beside the normal equations' 0.2 ms (level 1) and 0.55 ms (level 0): on the
-typical stereo pair 3.3 of its 12.7 ms. A fitness whose values and normal equations have
-numba kernels (:class:`~photomodel.fitness.KernelNormalEquations`, the ``soft`` fitness,
-through ``_kernel_loops.kernel_values`` and ``kernel_normal_equations``) is refined here by
-the same iterations in one compiled loop. The arithmetic both
-loops share (the prior's terms, the damped solve, the extrapolation, the step's slope, the
-clipping) is in
-the numba helpers below, which the Python loop calls too: the two give the same result to
-the bit (``tests/search/test_kernel_loops.py``).
+A fitness whose values and normal equations have numba kernels
+(:class:`~photomodel.fitness.KernelNormalEquations`, the ``soft`` fitness, through
+``kernel_values`` and ``kernel_normal_equations``) is refined by
+:func:`~photomodel.search.gauss_newton_refine`'s iterations in one compiled loop here, which
+saves the Python around each iteration. Genes are pose vectors (6,) or pose vectors with the
+model's strain (9,); maps are (4, 4) from model to camera 1. The arithmetic both loops share
+(the strain prior's terms, the damped solve, the extrapolation, the step's slope, the
+clipping, the map derivatives) is in the numba helpers below, which the Python loop calls
+too: the two give the same result to the bit (``tests/search/test_kernel_loops.py``).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from photomodel._jit import njit
 from photomodel.fitness._protocols import kernel_normal_equations, kernel_values
 from photomodel.geometry import pose_maps_kernel
 
@@ -26,7 +24,7 @@ CONVERGED, NO_ASCENT_CODE, OUT_OF_ITERATIONS = 0, 1, 2
 """The loop's stop codes."""
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def prior_values(V, prior):  # pragma: no cover - compiled
     """``v^T prior v`` (P,) of gene vectors ``V`` (P, G): the strain's prior."""
     out = np.zeros(V.shape[0])
@@ -39,7 +37,7 @@ def prior_values(V, prior):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def add_prior(gradient, metric, prior, x, free):  # pragma: no cover - compiled
     """The prior's terms on the free genes: ``gradient -= 2 prior x``, ``metric += 2
     prior`` (in place)."""
@@ -59,7 +57,7 @@ def add_prior(gradient, metric, prior, x, free):  # pragma: no cover - compiled
         k += 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def damped_step(metric, damping, gradient):  # pragma: no cover - compiled
     """The step ``(metric + damping (diag metric + 1e-12))^-1 gradient`` (k,)."""
     k = gradient.shape[0]
@@ -69,7 +67,7 @@ def damped_step(metric, damping, gradient):  # pragma: no cover - compiled
     return np.linalg.solve(A, gradient)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def slope_along(gradient, step, free):  # pragma: no cover - compiled
     """``gradient . step[free]``: the fitness's slope along ``step`` at its start."""
     s = 0.0
@@ -81,7 +79,7 @@ def slope_along(gradient, step, free):  # pragma: no cover - compiled
     return s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def extrapolation(f, candidate_value, slope, most):  # pragma: no cover - compiled
     """The factor (1: none) by which to take an accepted step further: where the parabola
     through the fitness ``f`` at the start, its ``slope`` along the step there and its value
@@ -94,7 +92,7 @@ def extrapolation(f, candidate_value, slope, most):  # pragma: no cover - compil
     return alpha if alpha >= 1.5 else 1.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def map_derivatives(x: NDArray[np.float64], free: NDArray[np.bool_]
                      ) -> NDArray[np.float64]:  # pragma: no cover - compiled
     """Derivatives (k, 4, 4) of the map of gene vector ``x`` (6,: a pose vector, or 9,: and
@@ -102,7 +100,7 @@ def map_derivatives(x: NDArray[np.float64], free: NDArray[np.bool_]
     genes, in closed form. The rotation's entries are quadratic in the quaternion
     ``(e1, e2, e3, w)``, ``w = sqrt(1 - |e|^2)``, so along ``e_k`` they move by the
     quadratic form's two terms with ``dq = (unit k, -e_k / w)``; the strain moves the
-    rotation's first two columns (central differences on 18 poses took 25 us)."""
+    rotation's first two columns."""
     e1, e2, e3 = x[3], x[4], x[5]
     w = np.sqrt(max(1.0 - (e1 * e1 + e2 * e2 + e3 * e3), 1e-300))
     R = np.empty((3, 3))
@@ -159,7 +157,7 @@ def map_derivatives(x: NDArray[np.float64], free: NDArray[np.bool_]
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _gene_maps(V):  # pragma: no cover - compiled
     """Maps (P, 4, 4) of gene vectors (P, 6) or, with the strain, (P, 9)."""
     if V.shape[1] > 6:
@@ -167,7 +165,7 @@ def _gene_maps(V):  # pragma: no cover - compiled
     return pose_maps_kernel(np.ascontiguousarray(V), np.zeros((1, 3)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def clip_genes(v, lower, upper, max_strain):  # pragma: no cover - compiled
     """Gene vector ``v`` with its pose in the box (``lower``, ``upper``) (6,) and its strain
     within +-``max_strain``."""
@@ -180,7 +178,7 @@ def clip_genes(v, lower, upper, max_strain):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _values(lanes, args, V, prior):  # pragma: no cover - compiled
     """The fitness less the prior (P,) of gene vectors ``V``, the first one's offsets and
     the first one's fitness itself."""
@@ -188,7 +186,7 @@ def _values(lanes, args, V, prior):  # pragma: no cover - compiled
     return f - prior_values(V, prior), offsets[0].copy(), f[0]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(inline="always", error_model="numpy")
 def _fitness_gradient(lanes, args, x, f, h, free, prior):  # pragma: no cover
     """Forward differences of the fitness itself over the free genes at ``x`` (``f``)."""
     G = x.shape[0]
@@ -206,18 +204,17 @@ def _fitness_gradient(lanes, args, x, f, h, free, prior):  # pragma: no cover
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                       upper, max_strain, prior, max_iterations, converged_steps, min_gain,
                       min_gain_steps, damping0, max_damping, rejected_damping, min_step,
-                      difference_on_stall, with_offsets, most, f_start,
-                      offsets_start):  # pragma: no cover - compiled
-    """``gauss_newton_refine``'s iterations with the analytic Jacobian from gene vector ``x``
-    (already clipped): the last accepted genes, their fitness less the prior, the
-    evaluations, the fitness history, the stop code, and the fitness itself at the last
-    accepted genes with the light offsets found there. ``f_start`` and ``offsets_start``
-    (2, 3): the fitness at ``x`` (itself, not less the prior) and its light offsets, when
-    the caller evaluated it (NaN: evaluate it here)."""
+                      most, f_start, offsets_start):  # pragma: no cover - compiled
+    """``gauss_newton_refine``'s iterations from gene vector ``x`` (already clipped): the
+    last accepted genes, their fitness less the prior, the evaluations, the fitness history,
+    the stop code, and the fitness itself at the last accepted genes with the light offsets
+    found there. ``f_start`` and ``offsets_start`` (2, 3): the fitness at ``x`` (itself, not
+    less the prior) and its light offsets, when the caller evaluated it (NaN: evaluate it
+    here)."""
     if np.isnan(f_start):
         f, offsets, raw = _values(lanes, vargs, x.reshape(1, -1), prior)
         f = f[0]
@@ -238,7 +235,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
     step = np.zeros(genes)
     for _ in range(max_iterations):
         gradient, metric = kernel_normal_equations(_gene_maps(x.reshape(1, -1))[0],
-                                  map_derivatives(x, free), offsets, with_offsets, nargs)
+                                  map_derivatives(x, free), offsets, True, nargs)
         evaluations += 1
         add_prior(gradient, metric, prior, x, free)
         if differenced:
@@ -279,7 +276,7 @@ def gauss_newton_loop(lanes, vargs, nargs, x, free, h, lower,
                 if not abs(step[g]) <= min_step * h[g]:
                     small = False
             if damping > max_damping or small:
-                if differenced or not difference_on_stall:
+                if differenced:
                     break
                 differenced, damping = True, damping0
                 gradient = _fitness_gradient(lanes, vargs, x, f, h, free, prior)

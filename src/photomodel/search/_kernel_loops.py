@@ -1,13 +1,11 @@
 """The local searches' loops in numba, for a fitness whose numba kernel they can call.
 
-:class:`~photomodel.search.LocalRefine` behind ask/tell costs some 50 us of Python an
-iteration (drawing, ray coordinates, clipping, pose maps, the fitness's wrapper, the
-tracker) where a coarse level's kernel costs 30-150 us: on the typical stereo pair the
-evolution strategies of levels 3 and 2 spent 2.5 of their 6.8 ms outside the kernel. A
-fitness whose numba kernel the loop can call (:class:`KernelFitness`, the ``soft`` fitness,
-through :func:`kernel_values`) is searched here by the same strategy in one compiled loop:
-the same draws from the caller's generator in the same order, the same arithmetic, the same
-result to the bit (``tests/search/test_kernel_loops.py``).
+A fitness whose numba kernel the loop can call (:class:`KernelFitness`, the ``soft`` fitness,
+through :func:`kernel_values`) is searched by :class:`~photomodel.search.LocalRefine`'s
+strategy in one compiled loop, without the Python of ask/tell around each iteration: the
+same draws from the caller's generator in the same order, the same arithmetic, the same
+result to the bit (``tests/search/test_kernel_loops.py``). Poses are pose vectors (6,) in
+camera 1's frame, or flat pose vectors laid on a plane (:class:`OnPlane`).
 """
 
 from __future__ import annotations
@@ -16,9 +14,9 @@ from collections.abc import Callable
 
 import numba
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from photomodel._jit import njit
 from photomodel.fitness._protocols import KernelFitness, kernel_values
 from photomodel.geometry import facing_kernel, facing_pose_vectors, pose_maps_kernel
 from photomodel.search._base import SearchResult, conforms
@@ -88,7 +86,7 @@ def refine_kernel(objective: KernelFitness | OnPlane, space: SearchSpace,
     return SearchResult(x, float(f), iterations * c.population, iterations, reason, best, mean)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _plane_maps(X, on_plane, q, lower, upper):  # pragma: no cover - compiled
     """The maps (P, 4, 4) of pose vectors ``X`` (P, 6), laid on the plane of quaternion ``q``
     and clipped into (``lower``, ``upper``) first when ``on_plane``."""
@@ -97,7 +95,7 @@ def _plane_maps(X, on_plane, q, lower, upper):  # pragma: no cover - compiled
     return pose_maps_kernel(X, np.zeros((1, 3)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _refine_loop(lanes, args, x0, step0, normals, lower, upper, grow, shrink, min_fraction,
                  max_iterations, on_plane, q, plane_lower,
                  plane_upper):  # pragma: no cover - compiled

@@ -127,7 +127,7 @@ SIMILAR: dict[str, GarmentSpec] = {
                                 "print"),
     )
 }
-"""Look-alikes of catalogue garments for identification (issue 6): each differs from its
+"""Look-alikes of catalogue garments for identification: each differs from its
 original in one respect only (size, colour or print). Not part of the paper's 12."""
 
 GARMENT_GROUPS: dict[str, tuple[str, ...]] = {

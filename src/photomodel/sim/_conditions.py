@@ -24,7 +24,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._jit import njit
 from photomodel.camera import PinholeCamera
+from photomodel.sim._presets import CONDITIONS
 from photomodel.sim._textures import RngLike
 
 __all__ = [
@@ -117,31 +119,7 @@ class Conditions:
             raise ValueError("occlusion needs a target garment")
 
 
-CONDITIONS: dict[str, dict[str, object]] = {
-    "paper": {},
-    "clean": {"noise_sigma": 0.0, "blur_sigma_px": 0.0, "vignetting": 0.0},
-    "dim": {"light_level": 0.4},
-    "bright": {"light_level": 1.6},
-    "warm-light": {"colour_temperature_k": 3000.0},
-    "cool-light": {"colour_temperature_k": 10000.0},
-    "vignetting": {"vignetting": 0.45},
-    "noise": {"noise_sigma": 7.0},
-    "blur": {"blur_sigma_px": 1.8},
-    "no-distortion": {"lens": "none"},
-    "wide-lens": {"lens": "wide"},
-    "grey": {"table": "grey"},
-    "wood": {"table": "wood"},
-    "conveyor": {"table": "conveyor"},
-    "green": {"table": "green"},
-    "tilt": {"tilt_deg": 8.0},
-    "wrinkles": {"wrinkle_height_mm": 8.0},
-    "distractors": {"distractor_garments": 2, "distractor_objects": 2},
-    "gripper": {"occlusion": "gripper"},
-    "overlap": {"occlusion": "garment"},
-    "no-target": {"target": False, "distractor_garments": 2, "distractor_objects": 1},
-    "empty": {"target": False},
-}
-"""Named presets: field overrides of :class:`Conditions` (``"paper"`` is the default set-up)."""
+
 
 
 def parse_conditions(spec: str) -> Conditions:
@@ -219,7 +197,7 @@ _ENCODE_LUT = (255.0 * _srgb_encode(np.arange(_ENCODE_SIZE + 2) / _ENCODE_SIZE))
     np.float32)
 
 
-@numba.njit(parallel=True, cache=True)
+@njit(parallel=True)
 def _relight(image: NDArray[np.float32], gain_bgr: NDArray[np.float32],
              vignette: NDArray[np.float32], decode: NDArray[np.float32],
              encode: NDArray[np.float32]) -> NDArray[np.float32]:  # pragma: no cover

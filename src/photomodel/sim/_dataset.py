@@ -1,4 +1,4 @@
-"""A simulated dataset directory in the DESIGN.md layout (what ``photomodel simulate`` writes).
+"""A simulated dataset directory, as ``photomodel simulate`` writes it (docs/contracts.md).
 
 ::
 

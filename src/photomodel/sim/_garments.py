@@ -1,6 +1,6 @@
 """Synthetic garments: a fabric texture cut to a silhouette, with the model frame at its centroid.
 
-The garment frame is the photo-model frame of DESIGN.md: origin at the area centroid of the
+The garment frame is the photo-model frame of docs/contracts.md: origin at the area centroid of the
 silhouette, x along the texture's columns, y along its rows, z into the plane it lies on.
 
 Silhouettes are simple polygons in bounding-box millimetres (y down), clockwise on screen,

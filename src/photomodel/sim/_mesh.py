@@ -26,10 +26,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._jit import njit
 from photomodel.camera import PinholeCamera
 from photomodel.sim._textures import PlaneTexture, RngLike
 
@@ -180,7 +180,7 @@ def field_of_view_radius(camera: PinholeCamera, margin: float = 1.05) -> float:
                                        camera.width_px, camera.height_px)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _rasterize(xy: NDArray[np.float64], depth: NDArray[np.float64], attr: NDArray[np.float32],
                tris: NDArray[np.int32], zbuf: NDArray[np.float64], out: NDArray[np.float32],
                covered: NDArray[np.bool_]) -> None:  # pragma: no cover - numba

@@ -20,6 +20,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._jit import njit
 from photomodel.camera import PinholeCamera
 from photomodel.sim._mesh import Wrinkles, field_of_view_radius, render_mesh_layer
 from photomodel.sim._textures import PlaneTexture, RngLike
@@ -77,7 +78,7 @@ def pixel_rays(camera: PinholeCamera, supersample: int = 1) -> NDArray[np.float6
                         camera.height_px, int(supersample))
 
 
-@numba.njit(parallel=True, cache=True)
+@njit(parallel=True)
 def _texture_maps(rays: NDArray[np.float64], R: NDArray[np.float64], p0: NDArray[np.float64],
                   origin_px: NDArray[np.float64], mm_per_px: float
                   ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:  # pragma: no cover

@@ -1,6 +1,7 @@
 """Contact sheet of a dataset directory: every model photo and every stereo scene, labelled.
 
-Works on any directory in the DESIGN.md dataset layout (simulated or recorded on a real rig).
+Works on any directory in the dataset layout of docs/contracts.md (simulated or recorded on a
+real rig).
 """
 
 from __future__ import annotations

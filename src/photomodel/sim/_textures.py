@@ -46,7 +46,7 @@ __all__ = [
 ]
 
 RngLike = int | np.random.Generator | None
-"""A seed or a numpy ``Generator`` (``None``: fresh OS entropy); see DESIGN.md."""
+"""A seed or a numpy ``Generator`` (``None``: fresh OS entropy); see docs/contracts.md."""
 
 MODEL_GREEN_BGR: tuple[int, int, int] = (60, 160, 50)
 """The model station's green plane (saturated green, BGR)."""

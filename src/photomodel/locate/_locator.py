@@ -1,0 +1,162 @@
+"""``Locator``: one photo-model prepared for one rig, then called once per stereo pair."""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from photomodel.camera import StereoRig
+from photomodel.errors import InputError
+from photomodel.fitness import PreparedModel, ScanConfig, StereoFeatures
+from photomodel.geometry import eps_from_rotation
+from photomodel.locate._locate import (
+    COARSE_SCAN,
+    LocateResult,
+    Method,
+    locate,
+    locate_in_features,
+    paper_method,
+)
+from photomodel.locate._prepare import prepare_model
+from photomodel.locate._threshold import load_threshold
+from photomodel.model import PhotoModel
+from photomodel.search import PyramidConfig, SearchSpace
+
+__all__ = ["Locator"]
+
+
+class Locator:
+    """Find one photo-model's pose ``T_cam1_model`` in stereo pairs of one rig.
+
+    Made once per model and rig: it prepares the model for the rig (its samples at every
+    pyramid level and camera blur, its scans' kernels) and reads the threshold, so that each
+    call pays for the search only. Calls may run in several threads at once.
+
+    Parameters
+    ----------
+    model : PhotoModel
+    rig : StereoRig
+        Camera 1 is the reference (the paper's right camera).
+    space : SearchSpace, optional
+        The pose search box. Default: the paper's experiment (x within +-255 mm, y within
+        +-195 mm, z 500-900 mm, in-plane angle +-53 deg, tilt +-10 deg from the table that
+        faces the rig).
+    method : {"default", "paper"} or PaperMethod
+        ``"default"``: the ``soft`` fitness searched coarse to fine; ``"paper"``: the paper's
+        fitness and binary GA (:class:`~photomodel.locate.PaperMethod` for its variants).
+    min_score : float, optional
+        Score in [0, 1] from which the garment counts as found. Default: the threshold file
+        ``threshold`` (default method) or the paper method's ``min_score``.
+    threshold : path, optional
+        Threshold file to read the default method's ``min_score`` from (default:
+        :func:`~photomodel.locate.threshold_path`: the user's calibrated file, else the
+        package's).
+
+    Examples
+    --------
+    >>> locate = Locator(model, rig)                       # doctest: +SKIP
+    >>> result = locate(right, left, rng=0)                # doctest: +SKIP
+    >>> result.found, result.position_mm                   # doctest: +SKIP
+    """
+
+    def __init__(self, model: PhotoModel, rig: StereoRig, space: SearchSpace | None = None,
+                 method: Method = "default", *, min_score: float | None = None,
+                 threshold: str | os.PathLike[str] | None = None) -> None:
+        if not isinstance(model, PhotoModel):
+            raise TypeError(f"model: expected a PhotoModel, got {type(model).__name__}")
+        if not isinstance(rig, StereoRig):
+            raise TypeError(f"rig: expected a StereoRig, got {type(rig).__name__}")
+        self.model = model
+        self.rig = rig
+        self.space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
+        self.method = method
+        self._paper = paper_method(method)
+        if min_score is not None and not 0.0 <= min_score <= 1.0:
+            raise ValueError(f"min_score: expected a score in [0, 1], got {min_score}")
+        if min_score is None:
+            min_score = (self._paper.min_score if self._paper is not None
+                         else load_threshold(threshold).min_score)
+        self.min_score = float(min_score)
+        self.prepared = PreparedModel(model)
+        if self._paper is None:
+            self._prepare()
+
+    def _prepare(self) -> None:
+        """Prepare the model for the rig's image size (skipped when the calibration does not
+        give it: the first stereo pair prepares it then)."""
+        w, h = self.rig.cam1.image_size
+        w2, h2 = self.rig.cam2.image_size
+        if not (w and h and w2 and h2):
+            return
+        blank = StereoFeatures(self.rig, np.zeros((h, w, 3), np.uint8),
+                               np.zeros((h2, w2, 3), np.uint8))
+        self.prepare(blank)
+
+    def prepare(self, features: StereoFeatures) -> bool:
+        """Prepare the model for ``features``' rig and image size (done once; see
+        :func:`~photomodel.locate.prepare_model`). True when anything was built."""
+        return prepare_model(self.prepared, features, space=self.space,
+                             scans=(COARSE_SCAN, ScanConfig()))
+
+    def __call__(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
+                 rng: int | np.random.Generator | None = None, *,
+                 start: NDArray[np.float64] | None = None) -> LocateResult:
+        """The pose of the model in one stereo pair.
+
+        Parameters
+        ----------
+        right_bgr, left_bgr : ndarray (H, W, 3) uint8
+            Camera 1 and camera 2 images (BGR, as :func:`~photomodel.read_image` gives).
+        rng : int, Generator or None
+            Seed of the stochastic search.
+        start : ndarray (4, 4), optional
+            A pose ``T_cam1_model`` (mm) near the answer, e.g. the last frame's: the search
+            starts there instead of scanning the whole box (default method only); the
+            caller falls back to a full search when the result is not found.
+
+        Returns
+        -------
+        LocateResult
+        """
+        if start is None or self._paper is not None:
+            if start is not None:
+                raise ValueError("start: a start pose needs the default method")
+            return locate(self.prepared, self.rig, right_bgr, left_bgr,
+                          method=self._paper or "default", rng=rng, space=self.space,
+                          min_score=self.min_score)
+        t0 = time.perf_counter()
+        features = StereoFeatures(self.rig, right_bgr, left_bgr)
+        return self.locate_features(features, rng, start=start, t0=t0)
+
+    def locate_features(self, features: StereoFeatures,
+                        rng: int | np.random.Generator | None = None, *,
+                        start: NDArray[np.float64] | None = None, **options: Any
+                        ) -> LocateResult:
+        """The default method on a stereo pair already turned into features (shared by
+        several models: :class:`~photomodel.Identifier`). ``options`` are those of
+        :func:`~photomodel.locate.locate_in_features` (``scan``, ``retries``,
+        ``second_look``, ``t0``, ``min_score``)."""
+        if self._paper is not None:
+            raise ValueError("locate_features: the paper's method works on images, not "
+                             "features")
+        options.setdefault("min_score", self.min_score)
+        if start is not None:
+            T = np.asarray(start, dtype=np.float64)
+            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+                raise InputError("start", f"expected a finite 4 x 4 pose, got shape {T.shape}")
+            x0 = np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
+            seed = self.space.clip(x0[None])[0]
+            options.update(retries=0, coarse_scan=None,
+                           pyramid=replace(PyramidConfig(), coarse_level=2), seeds=[seed])
+        return locate_in_features(self.prepared, features, space=self.space, rng=rng,
+                                  **options)
+
+    def __repr__(self) -> str:
+        method = self.method if isinstance(self.method, str) else "PaperMethod(...)"
+        return (f"Locator({self.model.name!r}, method={method!r}, "
+                f"min_score={self.min_score:.3f})")
