@@ -31,8 +31,9 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise InputError("--workers", f"expected >= 1, got {args.workers}")
     if not CACHE.enabled:
-        print(f"photomodel: error: no writable cache directory for the kernels "
-              f"({CACHE.describe()}); set NUMBA_CACHE_DIR", file=sys.stderr)
+        tried = ", ".join(str(path) for path in CACHE.tried)
+        print(f"photomodel: error: no writable cache directory for the kernels (tried "
+              f"{tried}); set NUMBA_CACHE_DIR", file=sys.stderr)
         return 2
 
     def say(line: str) -> None:

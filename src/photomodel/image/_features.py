@@ -134,11 +134,7 @@ def _smoothed_log_opponent(img, lut, taps, chunks, out):  # pragma: no cover - c
     Seven taps (the default 0.7-pixel smoothing) take each output row in one pass, the seven
     products summed in the taps' order (the same sums to the bit as a pass a tap)."""
     H = img.shape[0]
-    W = img.shape[1]
-    n = taps.shape[0]
-    r = n // 2
-    M = 3 * W
-    flat = out.reshape(H, M)
+    flat = out.reshape(H, 3 * img.shape[1])
     for chunk in prange(chunks):
         _smooth_rows(img, lut, taps, np.int64(chunk) * H // chunks,
                      (np.int64(chunk) + 1) * H // chunks, flat)
