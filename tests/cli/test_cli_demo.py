@@ -1,4 +1,4 @@
-"""``photomodel demo``: simulate, build, locate, compare, all through the real commands."""
+"""``photomodel demo``: simulate, build a library, locate, identify, through the real commands."""
 
 from __future__ import annotations
 
@@ -14,15 +14,20 @@ from photomodel.cli._main import main
 def test_demo_runs_end_to_end_and_finds_the_true_pose(tmp_path: Path,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--seed", "3"]) == 0
+    assert main(["demo", "--out", str(out), "--seed", "3", "--garments", "No.1,No.3"]) == 0
     text = capsys.readouterr().out
-    assert "$ photomodel simulate" in text and "$ photomodel locate" in text
+    for command in ("simulate", "build", "locate", "identify"):
+        assert f"$ photomodel {command}" in text
     for name in ("stereo.yaml", "model_camera.yaml", "truth.json",
                  "models/No.1/photo.bmp", "models/No.1/background.bmp"):
-        assert (out / "dataset" / name).is_file()
-    assert (out / "No.1.npz").is_file() and (out / "overlay.png").is_file()
+        assert (out / "data" / name).is_file()
+    for name in ("No.1.npz", "No.3.npz", "No.1.preview.png"):
+        assert (out / "models" / name).is_file()
+    assert (out / "overlay.png").is_file()
     error_row = next(line for line in text.splitlines() if line.startswith("error"))
     dx, dy, dz, dtheta = (float(v) for v in error_row.split()[1:])
     assert np.hypot(dx, dy) < 2.0 and abs(dz) < 10.0 and abs(dtheta) < 1.0
-    truth = json.loads((out / "dataset" / "truth.json").read_text())
-    assert [facts["model"] for facts in truth.values()] == ["No.1"]
+    truth = json.loads((out / "data" / "truth.json").read_text())
+    assert sorted(facts["model"] for facts in truth.values()) == ["No.1", "No.3"]
+    identified = next(line for line in text.splitlines() if line.startswith("identify in"))
+    assert identified.split(": ")[1].startswith("No.3 (truth No.3)")
