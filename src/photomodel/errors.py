@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from os import PathLike
 
-__all__ = ["InputError", "PhotomodelError", "NoGarmentError"]
+__all__ = ["InputError", "InputWarning", "PhotomodelError", "NoGarmentError"]
 
 
 class PhotomodelError(Exception):
@@ -31,6 +31,31 @@ class InputError(PhotomodelError, ValueError):
         self.problem = problem
         super().__init__(f"{self.source}: {problem}")
 
+    def __reduce__(self) -> tuple[type, tuple[str, str]]:
+        # Rebuilt from (source, problem), so that an error raised in a worker process (an
+        # experiment's trial) reaches the parent intact instead of breaking the pool.
+        return type(self), (self.source, self.problem)
+
 
 class NoGarmentError(InputError):
     """A model photo in which no garment could be separated from the background."""
+
+
+class InputWarning(UserWarning):
+    """A file that is read but looks wrong (a baseline in metres, damaged image data).
+
+    Raised with :func:`warnings.warn`; the CLI prints it as one line
+    (``photomodel: warning: FILE: problem``).
+
+    Parameters
+    ----------
+    source : str or path-like
+        The file (or argument name) that looks wrong; it starts the message.
+    problem : str
+        What looks wrong with it, in words a user can act on.
+    """
+
+    def __init__(self, source: str | PathLike[str], problem: str) -> None:
+        self.source = str(source)
+        self.problem = problem
+        super().__init__(f"{self.source}: {problem}")

@@ -370,7 +370,7 @@ def test_locate_search_space_out_of_range(capsys, data: CliData, tmp_path: Path,
                                    "--overlay", out_dir / "overlay.png"])
     assert code == 2 and out == "" and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
-    assert err.startswith("photomodel: error: search space: angles: expected"), err
+    assert err.startswith(f"photomodel: error: {option}: expected an angle from 0 to"), err
     assert not out_dir.exists()
 
 

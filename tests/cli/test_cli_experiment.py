@@ -33,8 +33,8 @@ def test_a_short_experiment_records_and_resumes(tmp_path: Path,
 @pytest.mark.parametrize(("extra", "fragment"), [
     (["--garments", "No.99"], "--garments: unknown garment 'No.99'"),
     (["--conditions", "sunny"], "--conditions: unknown condition 'sunny'"),
-    (["--trials", "0"], "--trials: expected at least 1"),
-    (["--workers", "0"], "--workers: expected at least 1"),
+    (["--trials", "0"], "--trials: expected an integer from 1 to 100000, got 0"),
+    (["--workers", "0"], "--workers: expected an integer from 1 to 1024, got 0"),
     (["--dataset", "/nonexistent/dataset"], "dataset directory not found"),
 ])
 def test_bad_options_give_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],

@@ -133,10 +133,11 @@ def test_force_replaces_an_existing_dataset(capsys, tmp_path: Path) -> None:
     out = tmp_path / "ds"
     out.mkdir()
     (out / "old.txt").write_text("old")
+    (out / "dataset.json").write_text('{"format": "photomodel-dataset"}')  # simulate wrote it
     argv = ["simulate", "--out", out, "--garments", "No.3", "--conditions", "no-target"]
     line = _assert_one_error_line(*_run(capsys, argv), "ds", "exists")
     assert "--force" in line
-    assert _files(out) == {"old.txt": b"old"}
+    assert set(_files(out)) == {"old.txt", "dataset.json"}
     _assert_nothing_written(tmp_path, "ds")
     code, stdout, err = _run(capsys, [*argv, "--force"])
     assert code == 0, err

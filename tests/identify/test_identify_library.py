@@ -39,9 +39,9 @@ def test_add_list_show_remove(tmp_path: Path, identify_data: IdentifyData) -> No
     assert not (tmp_path / "lib" / "No.3.npz").exists()
     assert [e.name for e in lib.scan().entries] == ["No.5", "No.9"]
     assert "No.3" not in json.loads(lib.index_path.read_text())["models"]
-    # no temporary files left behind by the atomic index writes
+    # no temporary files left behind by the atomic index writes (the writers' lock file stays)
     assert sorted(p.name for p in (tmp_path / "lib").iterdir()) == [
-        "No.5.npz", "No.9.npz", INDEX_NAME]
+        ".index.lock", "No.5.npz", "No.9.npz", INDEX_NAME]
 
 
 def test_add_renames_and_refuses_duplicates(tmp_path: Path,

@@ -164,6 +164,10 @@ def test_overwrite_replaces_and_an_empty_out_is_filled(tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old")
+    with pytest.raises(InputError, match="not a dataset"):   # not one simulate wrote
+        write_dataset(out, ["No.3"], ["no-target"], overwrite=True)
+    assert _files(out) == {"old.txt": b"old"}
+    (out / "dataset.json").write_text('{"format": "photomodel-dataset"}')
     summary = write_dataset(out, ["No.3"], ["no-target"], overwrite=True)
     assert summary.scenes == ("no-target_0000",) and summary.models == ("No.3",)
     assert not (out / "old.txt").exists() and (out / "truth.json").is_file()

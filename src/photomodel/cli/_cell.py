@@ -9,6 +9,12 @@ import sys
 from photomodel.cli._pick import add_layout_options, layout_and_settings
 from photomodel.errors import InputError
 
+MAX_ORDERS = 100_000
+MAX_TOLERANCE_MM = 1000.0
+_OPTIONS = {"orders": "--orders", "garments": "--garments", "hand_eye": "--hand-eye",
+            "tolerance_mm": "--tolerance-mm", "condition": "--conditions",
+            "seed": "--seed"}
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("cell", help="simulate pick-and-place orders end to end",
@@ -17,13 +23,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "objects) from the PA10's hand, locate the garment, plan the "
                                    "pick and place, and compare the planned grasp point with "
                                    "the true centroid in the base frame.")
-    p.add_argument("--orders", type=int, default=10, help="number of orders (cycles)")
+    p.add_argument("--orders", type=int, default=10,
+                   help=f"number of orders (cycles), 1 to {MAX_ORDERS} (default 10)")
     p.add_argument("--garments", default="all", help="catalogue garments, used in turn")
-    p.add_argument("--condition", default="distractors",
-                   help="simulated conditions of the table shots (default distractors)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--conditions", "--condition", dest="condition", default="distractors",
+                   help="simulated conditions of the table shots, joined with '+' (e.g. "
+                        "distractors+wrinkles; default distractors)")
+    p.add_argument("--seed", type=int, default=0, help="seed, 0 to 4294967295 (default 0)")
     p.add_argument("--tolerance-mm", type=float, default=10.0,
-                   help="grasp point within this distance of the truth counts as success")
+                   help="grasp point within this distance of the truth counts as success, "
+                        f"mm (above 0 to {MAX_TOLERANCE_MM:g}, default 10)")
     p.add_argument("--hand-eye", choices=("calibrated", "true"), default="calibrated",
                    help="plan with a simulated hand-eye calibration (default) or the true mount")
     add_layout_options(p)
@@ -35,6 +44,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from photomodel.cli._options import as_option_error, check_float, check_int, check_seed
+
+    check_int("--orders", args.orders, 1, MAX_ORDERS)
+    check_seed(args.seed)
+    check_float("--tolerance-mm", args.tolerance_mm, 0.0, MAX_TOLERANCE_MM, lo_open=True,
+                unit="mm")
+    from photomodel.sim import parse_conditions
+    from photomodel.sim._catalogue import expand_garments
+
+    try:
+        garments = expand_garments(args.garments)
+    except ValueError as exc:
+        raise InputError("--garments", str(exc)) from None
+    try:
+        parse_conditions(args.condition)
+    except ValueError as exc:
+        raise InputError("--conditions", str(exc)) from None
+
     from photomodel.cli._progress import count_progress
     from photomodel.experiments import run_metadata
     from photomodel.robot import (
@@ -44,16 +71,8 @@ def run(args: argparse.Namespace) -> int:
         run_cell,
         write_json_atomic,
     )
-    from photomodel.sim import parse_conditions
-    from photomodel.sim._catalogue import expand_garments
 
     animate = check_animation_path(args.animate) if args.animate else None
-    try:
-        garments = expand_garments(args.garments)
-        parse_conditions(args.condition)
-    except ValueError as exc:
-        raise InputError("--garments" if "garment" in str(exc) else "--condition",
-                         str(exc)) from None
     layout, settings = layout_and_settings(args)
     try:
         config = CellConfig(orders=args.orders, garments=garments, condition=args.condition,
@@ -61,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                             link_set=args.link_set, hand_eye=args.hand_eye, layout=layout,
                             pick=settings)
     except ValueError as exc:
-        raise InputError("cell", str(exc)) from None
+        raise as_option_error(exc, _OPTIONS, "cell") from None
     with count_progress("cell", enabled=sys.stderr.isatty()) as progress:
         report = run_cell(config, progress)
     if animate is not None and report.first_plan is not None:

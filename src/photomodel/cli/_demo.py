@@ -23,18 +23,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="simulate scenes, build models, locate and identify",
                        description="End-to-end demo on simulated data (no camera needed).")
     p.add_argument("--out", type=Path, default=Path("build/demo"), help="output directory")
-    p.add_argument("--seed", type=int, default=3, help="seed of the scenes and the searches")
+    p.add_argument("--seed", type=int, default=3,
+                   help="seed of the scenes and the searches, 0 to 4294967295 (default 3)")
     p.add_argument("--garments", "--garment", default="No.3,No.5,No.9",
                    help="catalogue garments, comma-separated (No.1 ... No.12); the first is "
                         "located, the last identified")
-    p.add_argument("--conditions", default="paper",
+    p.add_argument("--conditions", "--condition", default="paper",
                    help="simulated conditions, e.g. paper, wood+wrinkles (see simulate --help)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from photomodel.cli._main import main
+    from photomodel.cli._options import check_seed
 
+    check_seed(args.seed)
     out: Path = args.out
     data, library = out / "data", out / "models"
     names = [g.strip() for g in args.garments.split(",") if g.strip()]

@@ -89,8 +89,12 @@ def run(args: argparse.Namespace) -> int:
     try:    # the tilt is measured from the table that faces the rig
         space = SearchSpace.from_ranges(tuple(args.x_mm), tuple(args.y_mm), tuple(args.z_mm),
                                         args.theta_deg, args.tilt_deg, rig.R_cam1_facing)
-    except ValueError as exc:
-        raise InputError("search space", str(exc)) from None
+    except ValueError as exc:   # names the option and its range, in mm and deg
+        from photomodel.cli._options import as_option_error
+
+        raise as_option_error(exc, {"x_mm": "--x-mm", "y_mm": "--y-mm", "z_mm": "--z-mm",
+                                    "theta_deg": "--theta-deg", "tilt_deg": "--tilt-deg"},
+                              "search space") from None
     method: str | PaperMethod = "default"
     if paper:
         cap = {} if args.generations is None else {"max_generations": args.generations}

@@ -15,7 +15,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("models", help="manage a model library (a directory of photo-models)",
                        description="List, add, remove and show the photo-models of a library "
                                    "directory (DIR/<name>.npz with DIR/index.json). Files that "
-                                   "are not readable photo-models are skipped with a warning.")
+                                   "are not readable photo-models are skipped with a warning. "
+                                   "Writers take turns (a lock file in DIR), so concurrent "
+                                   "adds and removes keep every entry.")
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     ls = actions.add_parser("list", help="the library's models: name, size, colours, dates")
     ls.add_argument("--models", required=True, type=Path, help="library directory")
@@ -75,9 +77,12 @@ def run_list(args: argparse.Namespace) -> int:
 
 def run_add(args: argparse.Namespace) -> int:
     from photomodel.errors import InputError
+    from photomodel.library import check_model_name
 
     if args.name is not None and len(args.model) > 1:
         raise InputError("--name", "give one model file with --name")
+    if args.name is not None:
+        check_model_name(args.name, "--name")
     library = ModelLibrary(args.models, create=True)
     for path in args.model:
         entry = library.add(path, args.name, replace=args.replace)

@@ -24,16 +24,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "No.3-red) or groups: 'all' (the paper's 12, default), 'similar' "
                         "(look-alike pairs)")
     p.add_argument("--scenes", type=int, default=1, metavar="N",
-                   help="scenes per garment and condition (default 1)")
+                   help="scenes per garment and condition, 1 to 10000 (default 1)")
     p.add_argument("--conditions", default="paper",
                    help="comma-separated conditions, or 'all' for every named one "
                         "(default: paper)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the dataset (default 0)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the dataset, 0 to 4294967295 (default 0)")
     p.add_argument("--add-garment", nargs=4, action="append", default=[],
                    metavar=("NAME", "IMAGE", "MASK", "WIDTH_MM"),
                    help="also simulate your own garment: a photo, its mask (nonzero = garment) "
                         "and the mask's width in mm; repeatable")
-    p.add_argument("--force", action="store_true", help="replace --out if it exists")
+    p.add_argument("--force", action="store_true",
+                   help="replace --out if it is a dataset that simulate wrote (never a file "
+                        "or another directory)")
     p.add_argument("--contact-sheet", type=Path, default=None, metavar="PNG",
                    help="also write a contact sheet of the dataset")
     p.set_defaults(run=run)
@@ -43,7 +46,12 @@ def _split(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
+_OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
+            "conditions": "--conditions"}
+
+
 def run(args: argparse.Namespace) -> int:
+    from photomodel.cli._options import as_option_error, check_int, check_seed
     from photomodel.cli._progress import count_progress
     from photomodel.image import write_image
     from photomodel.sim import (
@@ -54,7 +62,10 @@ def run(args: argparse.Namespace) -> int:
         parse_conditions,
         write_dataset,
     )
+    from photomodel.sim._dataset import MAX_SCENES, check_garment_name
 
+    check_int("--scenes", args.scenes, 1, MAX_SCENES)
+    check_seed(args.seed)
     try:
         garments = list(expand_garments(args.garments))
     except ValueError as exc:
@@ -70,6 +81,12 @@ def run(args: argparse.Namespace) -> int:
     extra = {}
     for name, image, mask, width in args.add_garment:
         try:
+            check_garment_name(name)
+        except ValueError as exc:
+            raise InputError("--add-garment", str(exc).removeprefix("garments: ")) from None
+        if name in garments or name in extra:
+            raise InputError("--add-garment", f"garment name {name!r} is used twice")
+        try:
             width_mm = float(width)
         except ValueError:
             raise InputError("--add-garment", f"WIDTH_MM must be a number, got {width!r}") from None
@@ -84,10 +101,9 @@ def run(args: argparse.Namespace) -> int:
             summary = write_dataset(args.out, garments, conditions, args.scenes, args.seed,
                                     extra_garments=extra, overwrite=args.force,
                                     progress=progress)
-    except InputError:
-        raise
-    except ValueError as exc:
-        raise InputError(args.out, str(exc)) from None
+    except ValueError as exc:   # an InputError (names its file) passes unchanged
+        raise as_option_error(exc, _OPTIONS, "--conditions" if "lens" in str(exc)
+                              else str(args.out)) from None
     print(f"wrote {args.out}/: {len(summary.models)} model(s), {len(summary.scenes)} scene(s), "
           f"truth.json, stereo.yaml, model_camera.yaml")
     if args.contact_sheet is not None:

@@ -36,10 +36,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.errors import InputError
+from photomodel.experiments._lock import run_lock
 from photomodel.experiments._run import (
     config_changes,
     pool_stream,
     read_json,
+    remove_unused_run,
     run_metadata,
     write_config,
 )
@@ -228,10 +230,17 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
 
 def _append(path: Path, row: dict[str, Any]) -> None:
     new = not path.exists() or path.stat().st_size == 0
+    torn = False
+    if not new:
+        with path.open("rb") as f:
+            f.seek(-1, os.SEEK_END)
+            torn = f.read(1) != b"\n"  # a row cut short by an interruption
     with path.open("a", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=IDENTIFY_COLUMNS, extrasaction="raise")
         if new:
             writer.writeheader()
+        if torn:
+            f.write("\r\n")
         writer.writerow({k: (repr(float(v)) if isinstance(v, float) else v)
                          for k, v in row.items()})
         f.flush()
@@ -256,11 +265,15 @@ def read_identify_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
                 return []
             if list(reader.fieldnames) != list(IDENTIFY_COLUMNS):
                 raise InputError(p, "not an identification records file")
-            rows = [r for r in reader if None not in r.values() and r["scores"].endswith("}")]
+            rows = [r for r in reader if None not in r and None not in r.values()
+                    and r["scores"].endswith("}")]
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise InputError(p, f"cannot read records: {exc}") from None
-    out = []
+    out, seen = [], set()
     for r in rows:
+        if r["trial_id"] in seen:   # recorded twice (by runs before the run lock): the first
+            continue
+        seen.add(r["trial_id"])
         d: dict[str, Any] = dict(r)
         for k in ("index", "searched", "true_searched"):
             d[k] = int(r[k])
@@ -305,7 +318,22 @@ def run_identify_experiment(
         The summary (:func:`summarise_identify`) with the run's metadata.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(out, f"cannot create the run directory ({exc.strerror})") from None
+    try:
+        with run_lock(out):   # one run at a time writes the directory
+            return _run_identify(out, config, workers, progress)
+    except BaseException:
+        if created:
+            remove_unused_run(out, ("identify_config.json", "identify_config.json.tmp"))
+        raise
+
+
+def _run_identify(out: Path, config: IdentifyExperimentConfig, workers: int | None,
+                  progress: Callable[[int, int, str], None] | None) -> dict[str, Any]:
     cfg_path = out / "identify_config.json"
     wanted = config.to_json_dict()
     diff = config_changes(cfg_path, wanted, ignore=("min_score",))

@@ -70,9 +70,16 @@ def _rows(path: Path) -> list[dict[str, str]]:
             missing = [c for c in COLUMNS if c not in reader.fieldnames]
             if missing:
                 raise InputError(path, f"not a records file: missing columns {missing}")
-            # A row cut short by an interruption (no newline, missing fields) is dropped.
-            return [row for row in reader
-                    if None not in row and None not in row.values() and row["stop_reason"]]
+            # A row cut short by an interruption (no newline, missing fields) is dropped, and
+            # a trial recorded twice (by runs before the run lock) counts once: the first.
+            rows, seen = [], set()
+            for row in reader:
+                if (None in row or None in row.values() or not row["stop_reason"]
+                        or row["trial_id"] in seen):
+                    continue
+                seen.add(row["trial_id"])
+                rows.append(row)
+            return rows
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise InputError(path, f"cannot read records: {exc}") from exc
 

@@ -5,10 +5,16 @@ loses at most the trials in flight; running the same command again skips the rec
 ``config.json`` pins the settings of a run directory: resuming with other settings is refused,
 except more trials per garment, which extends the study (trial ids and seeds do not depend on
 the number of trials, so the recorded ones stay valid).
+
+One run at a time writes a run directory (:func:`~photomodel.experiments._lock.run_lock`: a
+second one is refused, naming the first one's pid), and the worker processes end with the run
+that started them, even when it is killed (``kill -9``): a killed run leaves neither duplicated
+records nor orphaned workers, and rerunning it resumes.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import platform
@@ -21,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from photomodel.errors import InputError
+from photomodel.experiments._lock import LOCK_NAME, die_with_parent, run_lock
 from photomodel.experiments._records import append_records, done_trial_ids
 from photomodel.experiments._trials import (
     ExperimentConfig,
@@ -112,12 +119,13 @@ def pool_stream(run: Callable[[Any, Any], dict[str, Any]], config: Any, trials: 
                 workers: int) -> Iterator[dict[str, Any]]:
     """``run(config, trial)`` for every trial in a local process pool, yielded as they finish.
 
-    Workers are spawned (no inherited numba threads) and limited by
-    :func:`~photomodel.experiments._trials.limit_threads`; leaving the loop early cancels the
-    trials not yet started.
+    Workers are spawned (no inherited numba threads), limited by
+    :func:`~photomodel.experiments._trials.limit_threads` and end when this process ends,
+    however it ends (:func:`~photomodel.experiments._lock.die_with_parent`); leaving the loop
+    early cancels the trials not yet started.
     """
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
-                             initializer=limit_threads) as pool:
+                             initializer=init_worker, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run, config, t) for t in trials]
         try:
             for fut in as_completed(futures):
@@ -127,14 +135,43 @@ def pool_stream(run: Callable[[Any, Any], dict[str, Any]], config: Any, trials: 
                 fut.cancel()
 
 
-def _dask(config: ExperimentConfig, trials: list[Trial],
-          scheduler: Any) -> Iterator[dict[str, Any]]:
+def init_worker(parent_pid: int) -> None:
+    """Initialiser of a pool worker: end with the parent ``parent_pid``, one numba thread."""
+    die_with_parent(parent_pid)
+    limit_threads()
+
+
+SCHEDULER_TIMEOUT_S = 5.0
+"""How long to try to reach a Dask scheduler before giving up."""
+
+
+def connect_scheduler(scheduler: Any) -> Any:
+    """A ``distributed.Client`` of ``scheduler`` (an address or a client, returned as is).
+
+    Raises
+    ------
+    InputError
+        Dask is not installed, or no scheduler answers at the address within
+        :data:`SCHEDULER_TIMEOUT_S` (the message names ``--scheduler``).
+    """
     try:
         from distributed import Client
-        from distributed import as_completed as dask_completed
     except ImportError:
         raise InputError("--scheduler", "needs Dask: pip install 'photomodel[cluster]'") from None
-    client = scheduler if isinstance(scheduler, Client) else Client(scheduler, timeout="30s")
+    if isinstance(scheduler, Client):
+        return scheduler
+    try:
+        return Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise InputError("--scheduler", f"cannot reach a Dask scheduler at {scheduler!r} "
+                                        f"({reason})") from None
+
+
+def _dask(config: ExperimentConfig, trials: list[Trial],
+          client: Any, own: bool) -> Iterator[dict[str, Any]]:
+    from distributed import as_completed as dask_completed
+
     try:
         futures = client.map(run_trial, [config] * len(trials), trials, pure=False)
         try:
@@ -143,7 +180,7 @@ def _dask(config: ExperimentConfig, trials: list[Trial],
         finally:
             client.cancel(futures)
     finally:
-        if client is not scheduler:
+        if own:
             client.close()
 
 
@@ -179,7 +216,34 @@ def run_experiment(
         wall time and commit of each run that recorded trials).
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(out, f"cannot create the run directory ({exc.strerror})") from None
+    try:
+        with run_lock(out):
+            return _run(out, config, workers, scheduler, progress)
+    except BaseException:
+        if created:
+            remove_unused_run(out, ("config.json", "summary.json", "summary.json.tmp",
+                                    "config.json.tmp"))
+        raise
+
+
+def remove_unused_run(out: Path, names: Sequence[str]) -> None:
+    """Remove run directory ``out`` that a failed run created, if it holds no record: the
+    files ``names`` and the lock go, then the directory if nothing else is in it."""
+    if any(out.glob("*.csv")):
+        return
+    for name in (*names, LOCK_NAME):
+        (out / name).unlink(missing_ok=True)
+    with contextlib.suppress(OSError):   # not empty (someone else's files): it stays
+        out.rmdir()
+
+
+def _run(out: Path, config: ExperimentConfig, workers: int | None, scheduler: Any,
+         progress: Progress | None) -> RunSummary:
     _check_config(out, config)
     records = out / "records.csv"
     trials = plan_trials(config)
@@ -189,7 +253,9 @@ def run_experiment(
     pending = [t for t in trials if t.trial_id not in done]
     workers = max(1, int(workers or os.cpu_count() or 1))
     if scheduler is not None:
-        stream, executor = _dask(config, pending, scheduler), f"dask ({scheduler})"
+        client = connect_scheduler(scheduler)
+        stream = _dask(config, pending, client, own=client is not scheduler)
+        executor = f"dask ({scheduler})"
     elif workers == 1 or len(pending) <= 1:
         stream, executor = _in_process(config, pending), "in-process"
     else:

@@ -79,6 +79,15 @@ class ExperimentConfig:
     max_generations: int | None = None
     dataset: str | None = None
 
+    def __post_init__(self) -> None:
+        if self.trials < 0:
+            raise ValueError(f"trials: expected a count >= 0, got {self.trials}")
+        if not 0 <= self.seed <= 2**32 - 1:
+            raise ValueError(f"seed: expected an integer from 0 to {2**32 - 1}, got {self.seed}")
+        if self.max_generations is not None and self.max_generations < 1:
+            raise ValueError(f"max_generations: expected a count >= 1, got "
+                             f"{self.max_generations}")
+
     def to_json_dict(self) -> dict[str, Any]:
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
 

@@ -13,17 +13,24 @@ dates) so that ``models list`` does not open every file. :meth:`ModelLibrary.sca
 the two: an indexed file that is unchanged (same byte count and modification time) is taken
 from the index, any other ``.npz`` file is opened, and a file that is not a readable
 photo-model (corrupt, foreign, of a newer format), a model whose name another file already
-has, or an index entry whose file is gone is *skipped* with a :class:`Skipped` note naming it;
-nothing else in the directory is looked at. The index is written atomically (temporary file,
-then rename) by :meth:`ModelLibrary.add`, :meth:`ModelLibrary.remove` and
-:meth:`ModelLibrary.reindex`, never by a read.
+has, or an index entry whose file is gone is *skipped* with a :class:`Skipped` note naming it,
+whatever is wrong with the file (one bad file never makes the library unusable); nothing else in
+the directory is looked at. The index is written atomically (temporary file, then rename) by
+:meth:`ModelLibrary.add`, :meth:`ModelLibrary.remove` and :meth:`ModelLibrary.reindex`, never
+by a read, and each of them reads, changes and writes the index holding an exclusive lock on
+``DIR/.index.lock`` (``fcntl.flock``; released by the kernel when the process dies), so that
+concurrent writers (several ``photomodel models add``, the service) never lose each other's
+entries. Readers need no lock: they see the old index or the new one, never a torn one.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import os
+import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -47,6 +54,10 @@ __all__ = [
 
 INDEX_NAME = "index.json"
 LIBRARY_FORMAT_VERSION = 1
+MAX_NAME_CHARS = 100
+"""Longest model name (the file name ``<name>.npz`` and its preview must fit a file system's
+255 bytes)."""
+_LOCK_NAME = ".index.lock"
 _FORMAT = "photomodel-library"
 _BAD_NAME_CHARS = set('/\\:*?"<>|')
 
@@ -119,7 +130,7 @@ class Skipped:
     reason: str
 
     def __str__(self) -> str:
-        return f"{self.path}: skipped: {self.reason}"
+        return f"{_printable(str(self.path))}: skipped: {_printable(self.reason)}"
 
 
 @dataclass(frozen=True)
@@ -162,12 +173,38 @@ def _now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
-def check_model_name(name: str) -> str:
-    """``name`` if it can be a library file name, else InputError naming it."""
-    if (not name or name in (".", "..") or name.startswith(".")
-            or any(c in _BAD_NAME_CHARS for c in name)):
-        raise InputError("name", f"{name!r} cannot be a model name in a library (no path "
-                                 "separators, no leading dot)")
+def _printable(text: str) -> str:
+    """``text`` itself if it prints as one plain line, else its escaped form (``ascii``)."""
+    return text if text.isprintable() else ascii(text)[1:-1]
+
+
+def _name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a model name of a library, or None when it can."""
+    if not isinstance(name, str) or not name.strip():
+        return "a model name must not be empty"
+    if not name.isprintable() or name != name.strip():
+        return ("a model name must be printable characters only (no line breaks, control or "
+                "direction characters, no leading or trailing spaces)")
+    if name.startswith(".") or any(c in _BAD_NAME_CHARS for c in name):
+        return 'a model name must not start with a dot or hold any of / \\ : * ? " < > |'
+    if len(name) > MAX_NAME_CHARS or len(name.encode("utf-8")) > 2 * MAX_NAME_CHARS:
+        return f"a model name must be at most {MAX_NAME_CHARS} characters long"
+    return None
+
+
+def check_model_name(name: str, source: str = "name") -> str:
+    """``name`` if it can be a model name of a library, else InputError naming ``source``.
+
+    A name is printable characters only (``str.isprintable``: no line break, control or
+    bidirectional-override character that would garble a listing), without leading or trailing
+    spaces, without path separators or a leading dot (it becomes the file name
+    ``<name>.npz``), and at most :data:`MAX_NAME_CHARS` characters long.
+    """
+    problem = _name_problem(name)
+    if problem is not None:
+        text = str(name)
+        shown = repr(text) if len(text) <= 2 * MAX_NAME_CHARS else f"{text[:40]!r}..."
+        raise InputError(source, f"{shown} cannot be a model name in a library: {problem}")
     return name
 
 
@@ -191,7 +228,7 @@ class ModelLibrary:
             if not create:
                 raise InputError(self.root, "model library directory not found")
             try:
-                self.root.mkdir(parents=True)
+                self.root.mkdir(parents=True, exist_ok=True)  # another writer may race us
             except OSError as exc:
                 raise InputError(self.root, f"cannot create it ({exc.strerror})") from None
 
@@ -202,8 +239,46 @@ class ModelLibrary:
 
     # --- the index ---------------------------------------------------------------------------
 
+    @contextlib.contextmanager
+    def _locked(self) -> Iterator[None]:
+        """Hold the library's write lock (``DIR/.index.lock``, exclusive ``flock``) inside.
+
+        The kernel releases it when the process ends, however it ends, so a killed writer never
+        leaves the library locked. Temporaries found under the lock are killed writers'
+        leftovers and are removed (:meth:`_remove_leftovers`).
+        """
+        try:
+            import fcntl
+        except ImportError:  # not POSIX: no lock (the index write stays atomic)
+            yield
+            return
+        try:
+            fd = os.open(self.root / _LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise InputError(self.root, f"cannot write to the library ({exc.strerror})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            self._remove_leftovers()
+            yield
+        finally:
+            os.close(fd)  # releases the lock
+
+    def _remove_leftovers(self) -> None:
+        """Remove what killed writers left (call holding the lock): every index temporary,
+        and model temporaries (``.<name>.npz.tmp``) older than a minute (a ``photomodel build
+        --out`` straight into the directory, which takes no lock, may be writing a young
+        one)."""
+        for stale in self.root.glob(f".{INDEX_NAME}.tmp-*"):
+            stale.unlink(missing_ok=True)
+        now = time.time()
+        for stale in self.root.glob(".*.npz.tmp"):
+            with contextlib.suppress(OSError):
+                if now - stale.stat().st_mtime > 60.0:
+                    stale.unlink()
+
     def _read_index(self) -> tuple[dict[str, LibraryEntry], list[Skipped]]:
-        """Entries of ``index.json`` (empty if missing); a damaged index is noted and ignored."""
+        """Entries of ``index.json`` (empty if missing); a damaged index is noted and ignored,
+        and so is an entry whose name cannot be a model name."""
         path = self.index_path
         if not path.exists():
             return {}, []
@@ -216,17 +291,23 @@ class ModelLibrary:
                                  f"photomodel reads ({LIBRARY_FORMAT_VERSION})")
             entries = {}
             for name, d in dict(data.get("models", {})).items():
-                entries[str(name)] = LibraryEntry.from_json_dict(name, d)
+                if _name_problem(name) is None:   # otherwise its file is read (and skipped)
+                    entries[str(name)] = LibraryEntry.from_json_dict(name, d)
             return entries, []
-        except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
-            return {}, [Skipped(path, f"index ignored, models read from their files ({exc})")]
+        except Exception as exc:  # noqa: BLE001 - whatever is wrong with it, the files decide
+            return {}, [Skipped(path, f"index ignored, models read from their files "
+                                      f"({type(exc).__name__}: {str(exc)[:200]})")]
 
     def _write_index(self, entries: dict[str, LibraryEntry]) -> None:
+        """Replace ``index.json`` atomically (call holding :meth:`_locked`)."""
         data = {"format": _FORMAT, "version": LIBRARY_FORMAT_VERSION,
                 "models": {n: entries[n].to_json_dict() for n in sorted(entries)}}
         tmp = self.root / f".{INDEX_NAME}.tmp-{os.getpid()}"
         try:
-            tmp.write_text(json.dumps(data, indent=1) + "\n")
+            with open(tmp, "w") as fh:
+                fh.write(json.dumps(data, indent=1) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
             os.replace(tmp, self.index_path)
         finally:
             tmp.unlink(missing_ok=True)
@@ -252,21 +333,21 @@ class ModelLibrary:
         by_file = {e.file: e for e in indexed.values()}
         entries: dict[str, LibraryEntry] = {}
         for path in sorted(self.root.glob("*.npz")):
-            if path.name.startswith(".") or not path.is_file():
-                continue
-            st = path.stat()
-            cached = by_file.get(path.name)
-            if (cached is not None and cached.file_bytes == st.st_size
-                    and cached.file_mtime_ns == st.st_mtime_ns):
-                entry = cached
-            else:
-                try:
-                    model = load_model(path)
-                except InputError as exc:
-                    skipped.append(Skipped(path, exc.problem))
+            try:
+                if path.name.startswith(".") or not path.is_file():
                     continue
-                entry = self._entry_for(path, model,
-                                        cached.added_utc if cached is not None else _now())
+                st = path.stat()
+                cached = by_file.get(path.name)
+                if (cached is not None and cached.file_bytes == st.st_size
+                        and cached.file_mtime_ns == st.st_mtime_ns):
+                    entry = cached
+                else:
+                    model = _load_one(path)
+                    entry = self._entry_for(path, model,
+                                            cached.added_utc if cached is not None else _now())
+            except Exception as exc:  # noqa: BLE001 - one bad file must not sink the library
+                skipped.append(Skipped(path, _why(exc)))
+                continue
             if entry.name in entries:
                 skipped.append(Skipped(path, f"model name {entry.name!r} is already taken by "
                                              f"{entries[entry.name].file}"))
@@ -299,9 +380,9 @@ class ModelLibrary:
         for name in wanted:
             path = self.root / by_name[name].file
             try:
-                models.append(load_model(path))
-            except InputError as exc:
-                skipped.append(Skipped(path, exc.problem))
+                models.append(_load_one(path))
+            except Exception as exc:  # noqa: BLE001 - one bad file must not sink the library
+                skipped.append(Skipped(path, _why(exc)))
         return models, skipped
 
     def entry(self, name: str) -> LibraryEntry:
@@ -331,41 +412,65 @@ class ModelLibrary:
         InputError
             Unreadable model file, a bad or taken name.
         """
+        if name is not None:
+            check_model_name(name)
         model = load_model(model_path)
         if name is not None and name != model.name:
             model = PhotoModel(**{**model.__dict__, "name": name})
-        check_model_name(model.name)
-        scan = self.scan()
-        taken = {e.name: e for e in scan.entries}
-        if model.name in taken and not replace:
-            raise InputError(self.root, f"already holds a model named {model.name!r} "
-                                        "(use --replace to replace it)")
-        target = self.root / f"{model.name}.npz"
-        if model.name not in taken and target.exists():
-            raise InputError(target, "exists but is not a usable model of this library; "
-                                     "remove it first")
-        old = taken.get(model.name)
-        if old is not None and old.file != target.name:
-            (self.root / old.file).unlink(missing_ok=True)
-        save_model(model, target)
-        entries = {e.name: e for e in scan.entries}
-        entries[model.name] = self._entry_for(target, model, _now())
-        self._write_index(entries)
+        check_model_name(model.name, str(model_path) if name is None else "name")
+        with self._locked():   # read, change and write the index as one step
+            scan = self.scan()
+            taken = {e.name: e for e in scan.entries}
+            if model.name in taken and not replace:
+                raise InputError(self.root, f"already holds a model named {model.name!r} "
+                                            "(use --replace to replace it)")
+            target = self.root / f"{model.name}.npz"
+            if model.name not in taken and target.exists():
+                raise InputError(target, "exists but is not a usable model of this library; "
+                                         "remove it first")
+            old = taken.get(model.name)
+            if old is not None and old.file != target.name:
+                (self.root / old.file).unlink(missing_ok=True)
+            save_model(model, target)
+            entries = {e.name: e for e in scan.entries}
+            entries[model.name] = self._entry_for(target, model, _now())
+            self._write_index(entries)
         return entries[model.name]
 
     def remove(self, name: str) -> LibraryEntry:
         """Delete model ``name``'s file and its index entry; InputError when there is none."""
-        scan = self.scan()
-        entries = {e.name: e for e in scan.entries}
-        if name not in entries:
-            raise InputError(self.root, f"no model named {name!r} in the library")
-        gone = entries.pop(name)
-        self._write_index(entries)
-        (self.root / gone.file).unlink(missing_ok=True)
+        with self._locked():
+            scan = self.scan()
+            entries = {e.name: e for e in scan.entries}
+            if name not in entries:
+                raise InputError(self.root, f"no model named {name!r} in the library")
+            gone = entries.pop(name)
+            self._write_index(entries)
+            (self.root / gone.file).unlink(missing_ok=True)
         return gone
 
     def reindex(self) -> LibraryScan:
         """Rewrite ``index.json`` from the files (skipped files stay out); returns the scan."""
-        scan = self.scan()
-        self._write_index({e.name: e for e in scan.entries})
+        with self._locked():
+            scan = self.scan()
+            self._write_index({e.name: e for e in scan.entries})
         return scan
+
+
+def _load_one(path: Path) -> PhotoModel:
+    """One library file's model; InputError when its name cannot be a library's."""
+    model = load_model(path)
+    problem = _name_problem(model.name)
+    if problem is not None:
+        raise InputError(path, f"model name {model.name[:60]!r}: {problem}")
+    return model
+
+
+def _why(exc: Exception) -> str:
+    """The reason a file is skipped, in one line."""
+    if isinstance(exc, InputError):
+        return exc.problem
+    kind = type(exc).__name__
+    if kind == "error":   # zlib.error, struct.error, ...: say whose
+        kind = f"{type(exc).__module__}.{kind}"
+    return f"not a readable photomodel file ({kind}: {str(exc)[:200]})"

@@ -53,6 +53,12 @@ from photomodel.model._photomodel import PhotoModel
 
 __all__ = ["BuildConfig", "BuildResult", "build_model", "build_photo_model"]
 
+MAX_DISTANCE_MM = 100_000.0
+"""Farthest camera-to-plane distance taken (a model station is about 400 mm)."""
+MIN_POINTS = 8
+"""Fewest S_in and S_out points a model needs (``step_mm`` too large for a garment leaves
+fewer)."""
+
 
 @dataclass(frozen=True)
 class BuildResult:
@@ -110,8 +116,9 @@ def build_photo_model(
                          f"{background_bgr.shape[0]} differs from the photo's "
                          f"{photo_bgr.shape[1]}x{photo_bgr.shape[0]}")
     camera.check_image(photo_bgr, str(photo_source))
-    if not distance_mm > 0:
-        raise ValueError(f"distance_mm: expected a positive distance, got {distance_mm}")
+    if not (np.isfinite(distance_mm) and 0 < distance_mm <= MAX_DISTANCE_MM):
+        raise ValueError(f"distance_mm: expected a distance above 0 to {MAX_DISTANCE_MM:g} mm, "
+                         f"got {distance_mm:g}")
     h, w = photo_bgr.shape[:2]
     smooth_background = _smooth(background_bgr, cfg.smooth_sigma_px)
     hsv_bg = bgr_to_hsv(smooth_background)
@@ -184,6 +191,10 @@ def build_photo_model(
     rings_out = [_rings(dist_out <= r * px_per_mm + 0.5, to_model, cfg.step_mm, outer=True)
                  for r in radii_mm]
     points_out = np.concatenate(rings_out) if rings_out else np.zeros((0, 3))
+    if min(len(points_in), len(points_out)) < MIN_POINTS:
+        raise ValueError(f"step_mm: a pitch of {cfg.step_mm:g} mm leaves {len(points_in)} points "
+                         f"inside and {len(points_out)} around this garment (at least "
+                         f"{MIN_POINTS} each are needed); choose a smaller pitch")
     uv_out = to_pixels(points_out)
 
     outline_uv = _largest_contour(mask)
@@ -293,10 +304,15 @@ def _lookup(image: NDArray, uv: NDArray[np.float64]) -> NDArray:
 
 
 def _sample_bilinear(image: NDArray[np.uint8], uv: NDArray[np.float64]) -> NDArray[np.uint8]:
-    mx = uv[:, 0].astype(np.float32).reshape(1, -1)
-    my = uv[:, 1].astype(np.float32).reshape(1, -1)
-    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return out.reshape(-1, image.shape[2])
+    # Rows of at most 4096 samples: cv2.remap takes no map side over 32767 (a fine --step-mm).
+    n = len(uv)
+    cols = min(max(n, 1), 4096)
+    rows = max(-(-n // cols), 1)
+    maps = np.zeros((rows * cols, 2), dtype=np.float32)
+    maps[:n] = uv
+    out = cv2.remap(image, maps[:, 0].reshape(rows, cols), maps[:, 1].reshape(rows, cols),
+                    cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(-1, image.shape[2])[:n]
 
 
 def _largest_contour(mask: NDArray[np.uint8]) -> NDArray[np.float64]:

@@ -26,7 +26,29 @@ class BuildConfig:
 
     def __post_init__(self) -> None:
         for key, value in asdict(self).items():
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"{key}: expected a non-negative number, got {value}")
-        if self.step_mm <= 0:
-            raise ValueError(f"step_mm: expected a positive number, got {self.step_mm}")
+            lo, hi = RANGES[key]
+            if not (math.isfinite(value) and lo <= value <= hi) or (
+                    key in _POSITIVE and value <= 0):
+                unit = next((u for end, u in _UNITS if key.endswith(end)), "")
+                allowed = (f"greater than {lo:g} and at most {hi:g}{unit}" if key in _POSITIVE
+                           else f"from {lo:g} to {hi:g}{unit}")
+                raise ValueError(f"{key}: expected a number {allowed}, got {value:g}")
+
+
+RANGES: dict[str, tuple[float, float]] = {
+    "hue_threshold_deg": (0.0, 180.0),
+    "achromatic_fraction": (0.0, 1.0),
+    "dark_fraction": (0.0, 1.0),
+    "step_mm": (0.5, 20.0),
+    "edge_inset_mm": (0.0, 50.0),
+    "band_gap_mm": (0.0, 50.0),
+    "band_width_mm": (0.0, 100.0),
+    "smooth_sigma_px": (0.0, 20.0),
+    "min_area_mm2": (0.0, 1e6),
+    "crop_margin_px": (0.0, 1000.0),
+    "mixing_edge": (0.0, 1.0),
+}
+"""Allowed range of each setting (units in the names; ``step_mm`` from 0.5 mm, about half a
+pixel of the model camera, to 20 mm, beyond which a mid-size garment keeps too few points)."""
+_POSITIVE = {"hue_threshold_deg"}
+_UNITS = (("_mm2", " mm^2"), ("_mm", " mm"), ("_deg", " deg"), ("_px", " px"))

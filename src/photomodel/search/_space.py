@@ -74,15 +74,27 @@ class SearchSpace:
             a garment tilted 8 deg on it lay up to 13 deg from camera 1, beyond a box measured
             from camera 1.
         """
-        if not (0 <= theta_deg <= 180 and 0 <= tilt_deg <= 90):
-            raise ValueError(f"angles: expected 0 <= theta_deg <= 180 and 0 <= tilt_deg <= 90, "
-                             f"got {theta_deg}, {tilt_deg}")
+        for key, (lo, hi) in (("x_mm", x_mm), ("y_mm", y_mm), ("z_mm", z_mm)):
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+                raise ValueError(f"{key}: expected a range LO HI in mm with LO <= HI, got "
+                                 f"{lo:g} {hi:g}")
+        if not z_mm[0] > 0:
+            raise ValueError(f"z_mm: expected distances in front of camera 1 (LO above 0 mm), "
+                             f"got {z_mm[0]:g} {z_mm[1]:g}")
+        if not 0 <= theta_deg <= 180:
+            raise ValueError(f"theta_deg: expected an angle from 0 to 180 deg, got {theta_deg:g}")
+        if not 0 <= tilt_deg <= 90:
+            raise ValueError(f"tilt_deg: expected an angle from 0 to 90 deg, got {tilt_deg:g}")
         e3 = np.sin(np.deg2rad(theta_deg) / 2)
         e12 = np.sin(np.deg2rad(tilt_deg) / 2)
         lo12, hi12 = np.array([-e12, -e12]), np.array([e12, e12])
         if R_cam1_plane is not None:
             lo12, hi12 = _tilt_box(np.asarray(R_cam1_plane, dtype=np.float64).tobytes(),
                                    float(theta_deg), float(tilt_deg))
+        if np.sum(np.maximum(np.abs(lo12), np.abs(hi12)) ** 2) + e3**2 > 1:
+            raise ValueError(f"tilt_deg: a tilt of +-{tilt_deg:g} deg with an in-plane range of "
+                             f"+-{theta_deg:g} deg is no box of rotations (the quaternion's "
+                             "vector part leaves the unit ball); narrow one of them")
         return cls(
             np.array([x_mm[0], y_mm[0], z_mm[0], lo12[0], lo12[1], -e3]),
             np.array([x_mm[1], y_mm[1], z_mm[1], hi12[0], hi12[1], e3]),

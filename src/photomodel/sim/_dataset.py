@@ -14,7 +14,9 @@
 Every image has its own seed, derived from the dataset's seed and the names (condition,
 garment, index) of what it shows, so the same seed gives byte-identical files, and adding a
 garment or a condition leaves the other scenes unchanged. The directory is built beside its
-final place and moved there only when complete.
+final place and moved there only when complete; the scenes are written one by one (memory does
+not grow with their number). ``overwrite`` replaces only a dataset (a directory with
+``dataset.json``), never a file or another directory.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import os
 import re
 import shutil
 import zlib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -43,13 +45,20 @@ from photomodel.sim._scenes import render_model_photos, simulate_scene
 
 __all__ = [
     "DATASET_FORMAT_VERSION",
+    "MAX_SCENES",
     "DatasetSummary",
+    "check_garment_name",
     "dumps_json",
+    "is_dataset",
     "scene_rng",
     "write_dataset",
 ]
 
 DATASET_FORMAT_VERSION = 1
+_FORMAT = "photomodel-dataset"
+MAX_SCENES = 10_000
+"""Most scenes per garment and condition (the paper's study is 1000)."""
+MAX_SEED = 2**32 - 1
 
 
 def _key(text: str) -> int:
@@ -81,9 +90,39 @@ class DatasetSummary:
     scenes: tuple[str, ...]
 
 
-def _check_name(name: str) -> None:
-    if not name or name in (".", "..") or any(c in name for c in '/\\:*?"<>|'):
-        raise ValueError(f"garment name {name!r} cannot be a directory name")
+def check_garment_name(name: str) -> None:
+    """ValueError (``garments: ...``) when ``name`` cannot be a garment's directory name."""
+    if (not name or name in (".", "..") or name.startswith(".") or not name.isprintable()
+            or name != name.strip() or len(name) > 100
+            or any(c in name for c in '/\\:*?"<>|')):
+        raise ValueError(f"garments: garment name {name!r} cannot be a directory name "
+                         "(printable, at most 100 characters, no path separators or leading "
+                         "dot)")
+
+
+def is_dataset(path: Path) -> bool:
+    """Whether ``path`` is a directory that :func:`write_dataset` wrote (its ``dataset.json``
+    says so)."""
+    try:
+        manifest = json.loads((path / "dataset.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(manifest, dict) and manifest.get("format") == _FORMAT
+
+
+def _remove_stale_partials(out: Path) -> None:
+    """Remove the half-built directories of earlier runs for ``out`` whose process is gone
+    (a ``kill -9`` leaves one)."""
+    for partial in out.parent.glob(f".{out.name}.partial-*"):
+        pid = partial.name.rsplit("-", 1)[-1]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(partial, ignore_errors=True)
+        except OSError:
+            pass  # alive (another user's): leave it
 
 
 def write_dataset(
@@ -110,13 +149,14 @@ def write_dataset(
         each condition with a target, ``scenes`` scenes of each garment; for one without
         (``"no-target"``), ``scenes`` scenes in all.
     scenes : int
-        Scenes per garment and condition.
+        Scenes per garment and condition, 1 to :data:`MAX_SCENES`.
     seed : int
-        Seed of the whole dataset.
+        Seed of the whole dataset, 0 to 2**32 - 1.
     extra_garments : mapping of str to Garment, optional
         Users' own garments (:func:`load_garment`), simulated like catalogue ones.
     overwrite : bool
-        Replace ``out`` if it exists and is not empty (otherwise that is an error).
+        Replace ``out`` if it is a dataset (has ``dataset.json``); a non-empty ``out`` is
+        otherwise an error, and a file or a directory of anything else always is.
     progress : callable(done, total, label), optional
         Called after every image written.
 
@@ -127,22 +167,25 @@ def write_dataset(
     Raises
     ------
     InputError
-        ``out`` exists and is not empty (without ``overwrite``), or cannot be written.
+        ``out`` exists and is not empty (without ``overwrite``), is a file or a directory that
+        is not a dataset, or cannot be written.
     ValueError
-        An unknown garment or condition, conditions asking for different lenses, or
-        ``scenes < 1``.
+        An unknown garment or condition, conditions asking for different lenses, ``scenes``
+        or ``seed`` out of range; the message starts with the argument (``scenes: ...``).
     """
     out = Path(out)
-    if scenes < 1:
-        raise ValueError(f"scenes: expected at least 1, got {scenes}")
+    if not 1 <= scenes <= MAX_SCENES:
+        raise ValueError(f"scenes: expected an integer from 1 to {MAX_SCENES}, got {scenes}")
+    if not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed: expected an integer from 0 to {MAX_SEED}, got {seed}")
     names = list(garment_names() if garments is None else garments)
     chosen: dict[str, Garment] = {name: catalogue_garment(name) for name in names}
     for name, garment in (extra_garments or {}).items():
         if name in chosen:
-            raise ValueError(f"garment name {name!r} is used twice")
+            raise ValueError(f"garments: garment name {name!r} is used twice")
         chosen[name] = garment
     for name in chosen:
-        _check_name(name)
+        check_garment_name(name)
     specs = list(dict.fromkeys(conditions))
     if not specs:
         raise ValueError("conditions: expected at least one")
@@ -154,14 +197,22 @@ def write_dataset(
                          "simulate them into separate datasets")
     if any(c.target for c in parsed.values()) and not chosen:
         raise ValueError("garments: expected at least one")
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not overwrite:
-        raise InputError(out, "already exists and is not empty (use --force to replace it)")
-    jobs = _jobs(parsed, list(chosen), scenes)
-    total = len(chosen) + len(jobs)
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
+        raise InputError(out, "exists and is not a directory; choose another --out")
+    if out.exists() and any(out.iterdir()):
+        if not is_dataset(out):
+            raise InputError(out, "already exists and is not a dataset that photomodel "
+                                  "simulate wrote (no dataset.json); --force replaces only "
+                                  "those: choose another --out")
+        if not overwrite:
+            raise InputError(out, "already exists and is not empty (use --force to replace it)")
+    total = len(chosen) + _count_jobs(parsed, len(chosen), scenes)
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     created = next((p for p in reversed(out.parents) if not p.exists()), None)
     complete = False
+    scene_ids: list[str] = []
     try:
+        _remove_stale_partials(out)
         if tmp.exists():
             shutil.rmtree(tmp)
         tmp.mkdir(parents=True)
@@ -178,26 +229,34 @@ def write_dataset(
             done += 1
             if progress is not None:
                 progress(done, total, f"model {name}")
-        truth: dict[str, dict[str, Any]] = {}
-        for scene_id, spec, name, k in jobs:
-            cond = parsed[spec]
-            target = chosen[name] if name is not None else None
-            shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
-            write_image(tmp / "scenes" / scene_id / "right.png", shot.right_bgr)
-            write_image(tmp / "scenes" / scene_id / "left.png", shot.left_bgr)
-            truth[scene_id] = {
-                "model": name,
-                "T_cam1_model": None if shot.T_cam1_model is None else shot.T_cam1_model.tolist(),
-                "condition": spec,
-                **shot.info,
-            }
-            done += 1
-            if progress is not None:
-                progress(done, total, f"scene {scene_id}")
-        (tmp / "truth.json").write_text(dumps_json(truth))
+        with open(tmp / "truth.json", "w") as truth:   # one scene's entry at a time
+            truth.write("{")
+            for scene_id, spec, name, k in _jobs(parsed, list(chosen), scenes):
+                cond = parsed[spec]
+                target = chosen[name] if name is not None else None
+                shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
+                write_image(tmp / "scenes" / scene_id / "right.png", shot.right_bgr)
+                write_image(tmp / "scenes" / scene_id / "left.png", shot.left_bgr)
+                facts = {
+                    "model": name,
+                    "T_cam1_model": (None if shot.T_cam1_model is None
+                                     else shot.T_cam1_model.tolist()),
+                    "condition": spec,
+                    **shot.info,
+                }
+                # The text dumps_json gives this entry inside the whole dict.
+                entry = dumps_json({scene_id: facts})[1:-3]
+                truth.write(("," if scene_ids else "") + entry)
+                scene_ids.append(scene_id)
+                done += 1
+                if progress is not None:
+                    progress(done, total, f"scene {scene_id}")
+            truth.write("\n}\n" if scene_ids else "}\n")
         (tmp / "dataset.json").write_text(dumps_json(_manifest(seed, chosen, parsed, scenes)))
         if out.exists():
-            shutil.rmtree(out) if out.is_dir() else out.unlink()
+            if any(out.iterdir()) and not is_dataset(out):   # changed while we worked
+                raise InputError(out, "is no longer a dataset; left as it is")
+            shutil.rmtree(out)
         os.replace(tmp, out)
         complete = True
     except OSError as exc:
@@ -207,7 +266,7 @@ def write_dataset(
             shutil.rmtree(tmp, ignore_errors=True)
         if not complete and created is not None and created.exists():
             shutil.rmtree(created, ignore_errors=True)  # folders this call made for ``out``
-    return DatasetSummary(out, tuple(chosen), tuple(truth))
+    return DatasetSummary(out, tuple(chosen), tuple(scene_ids))
 
 
 _NUMBER_LIST = re.compile(r"\[\s+([^\[\]{}\"]*?)\s+\]")
@@ -220,16 +279,21 @@ def dumps_json(data: Any) -> str:
 
 
 def _jobs(parsed: Mapping[str, Conditions], garments: list[str], scenes: int
-          ) -> list[tuple[str, str, str | None, int]]:
+          ) -> Iterator[tuple[str, str, str | None, int]]:
     """(scene id, condition spec, garment or None, index) of every scene, in order."""
-    jobs: list[tuple[str, str, str | None, int]] = []
     for spec, cond in parsed.items():
         if cond.target:
-            jobs += [(f"{spec}_{name}_{k:04d}", spec, name, k)
-                     for name in garments for k in range(scenes)]
+            for name in garments:
+                for k in range(scenes):
+                    yield f"{spec}_{name}_{k:04d}", spec, name, k
         else:
-            jobs += [(f"{spec}_{k:04d}", spec, None, k) for k in range(scenes)]
-    return jobs
+            for k in range(scenes):
+                yield f"{spec}_{k:04d}", spec, None, k
+
+
+def _count_jobs(parsed: Mapping[str, Conditions], garments: int, scenes: int) -> int:
+    """How many scenes :func:`_jobs` gives."""
+    return sum(scenes * (garments if cond.target else 1) for cond in parsed.values())
 
 
 def _manifest(seed: int, garments: Mapping[str, Garment], parsed: Mapping[str, Conditions],
@@ -237,7 +301,7 @@ def _manifest(seed: int, garments: Mapping[str, Garment], parsed: Mapping[str, C
     from importlib.metadata import version
 
     return {
-        "format": "photomodel-dataset",
+        "format": _FORMAT,
         "format_version": DATASET_FORMAT_VERSION,
         "generator": f"photomodel {version('photomodel')} (simulated)",
         "seed": int(seed),
