@@ -523,3 +523,16 @@ def test_help_and_error_paths_load_no_numba_scipy_or_matplotlib(data: CliData,
     missing = tmp_path / "missing.npz"
     assert _modules_after([str(a) for a in _locate_argv(data, model=missing)]) == set()
     assert _modules_after(["locate", "--model", str(data.model), "--bogus"]) == set()
+
+
+@pytest.mark.parametrize("argv", [["frob"], ["locate", "--model", "m.npz"],
+                                  ["locate", "--model", "m", "--stereo", "s", "--right", "r",
+                                   "--left", "l", "--method", "fast"],
+                                  ["simulate", "--out", "d", "--scenes", "many"]])
+def test_an_option_error_is_one_line_naming_the_option(capsys, argv: list[str]) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2
+    assert len(err.strip().splitlines()) == 1 and err.startswith("photomodel: error: "), err
+    assert "Traceback" not in err and "usage:" not in err

@@ -8,8 +8,11 @@ outputs are written atomically after the work succeeded.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
+from typing import NoReturn, TextIO
 
 from photomodel import __version__
 from photomodel.cli import (
@@ -25,14 +28,22 @@ from photomodel.cli import (
     _simulate,
     _warmup,
 )
-from photomodel.errors import PhotomodelError
+from photomodel.errors import InputWarning, PhotomodelError
 
 EXIT_INPUT_ERROR = 2
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (argparse's names the option and what it
+    allows), exit code 2; the sub-command parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_INPUT_ERROR, f"photomodel: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with all sub-commands."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="photomodel",
         description="Photo-model based garment recognition: build a model from one photo, "
                     "find its 6-DoF pose in a stereo pair.",
@@ -53,10 +64,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_input_warning(default: Callable[..., None]) -> Callable[..., None]:
+    """``warnings.showwarning`` that prints an InputWarning as one line."""
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: TextIO | None = None, line: str | None = None) -> None:
+        if issubclass(category, InputWarning):
+            print(f"photomodel: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    # OpenCV's own log (a decoder's complaint about a damaged file) would be a second line;
+    # photomodel reports the problem itself. Set before the commands import cv2.
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
     parser = build_parser()
     args = parser.parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_input_warning(warnings.showwarning)
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.run(args) or 0)
     except PhotomodelError as exc:
