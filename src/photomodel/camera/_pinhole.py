@@ -13,6 +13,14 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._limits import (
+    FOCAL_PX_RANGE,
+    MAX_DISTORTION_COEFF,
+    MAX_FOCAL_PER_SIDE,
+    MAX_IMAGE_PIXELS,
+    MAX_PRINCIPAL_POINT_PX,
+)
+
 _N_DIST = 12  # rational model + thin prism; (tilted model tau_x, tau_y is not supported)
 
 
@@ -29,11 +37,21 @@ class PinholeCamera:
     Parameters
     ----------
     K : ndarray (3, 3)
-        Intrinsic matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] in pixels.
+        Intrinsic matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]] in pixels; the focal lengths
+        within :data:`~photomodel._limits.FOCAL_PX_RANGE`, |s| at most fx, the principal
+        point within :data:`~photomodel._limits.MAX_PRINCIPAL_POINT_PX`; with the image size
+        given, the focal lengths at most :data:`~photomodel._limits.MAX_FOCAL_PER_SIDE` times
+        its larger side.
     dist : ndarray (n,)
-        OpenCV distortion coefficients, n in {0, 4, 5, 8, 12}.
+        OpenCV distortion coefficients, n in {0, 4, 5, 8, 12}, finite, each at most
+        :data:`~photomodel._limits.MAX_DISTORTION_COEFF` in size.
     width_px, height_px : int
         Image size; 0 when the calibration does not say.
+
+    Raises
+    ------
+    ValueError
+        A value outside those bounds (the message starts with the parameter's name).
     """
 
     K: NDArray[np.float64]
@@ -49,15 +67,37 @@ class PinholeCamera:
             raise ValueError("K: focal lengths must be finite and positive")
         if K[1, 0] != 0 or not np.array_equal(K[2], [0.0, 0.0, 1.0]):
             raise ValueError("K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]]")
+        lo, hi = FOCAL_PX_RANGE
+        if not (lo <= K[0, 0] <= hi and lo <= K[1, 1] <= hi):
+            raise ValueError(f"K: focal lengths ({K[0, 0]:g}, {K[1, 1]:g}) px are outside "
+                             f"{lo:g}-{hi:g} px")
+        if abs(K[0, 1]) > K[0, 0]:
+            raise ValueError(f"K: skew {K[0, 1]:g} is larger than the focal length")
+        if max(abs(K[0, 2]), abs(K[1, 2])) > MAX_PRINCIPAL_POINT_PX:
+            raise ValueError(f"K: principal point ({K[0, 2]:g}, {K[1, 2]:g}) px is beyond "
+                             f"{MAX_PRINCIPAL_POINT_PX:g} px")
         d = np.asarray(self.dist, dtype=np.float64).ravel()
         if d.size not in (0, 4, 5, 8, 12, 14):
             raise ValueError(f"dist: expected 0, 4, 5, 8, 12 or 14 coefficients, got {d.size}")
         if d.size == 14 and np.any(d[12:] != 0):
             raise ValueError("dist: the tilted-sensor terms (tau_x, tau_y) are not supported")
+        if not np.isfinite(d).all() or np.abs(d).max(initial=0.0) > MAX_DISTORTION_COEFF:
+            raise ValueError(f"dist: coefficients must be finite and at most "
+                             f"{MAX_DISTORTION_COEFF:g} in size")
+        width, height = int(self.width_px), int(self.height_px)
+        if width < 0 or height < 0 or width * height > MAX_IMAGE_PIXELS:
+            raise ValueError(f"width_px, height_px: expected a size of at most "
+                             f"{MAX_IMAGE_PIXELS / 1e6:.0f} megapixels (0 for unknown), "
+                             f"got {width}x{height}")
+        if width and height and max(K[0, 0], K[1, 1]) > MAX_FOCAL_PER_SIDE * max(width, height):
+            raise ValueError(f"K: focal length {max(K[0, 0], K[1, 1]):g} px is more than "
+                             f"{MAX_FOCAL_PER_SIDE:g} x the {width}x{height} image's larger side "
+                             f"(a field of view under "
+                             f"{np.degrees(2 * np.arctan(0.5 / MAX_FOCAL_PER_SIDE)):.1f} deg)")
         object.__setattr__(self, "K", K)
         object.__setattr__(self, "dist", d[:12] if d.size == 14 else d)
-        object.__setattr__(self, "width_px", int(self.width_px))
-        object.__setattr__(self, "height_px", int(self.height_px))
+        object.__setattr__(self, "width_px", width)
+        object.__setattr__(self, "height_px", height)
 
     @property
     def has_distortion(self) -> bool:

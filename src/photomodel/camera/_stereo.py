@@ -8,8 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._limits import MAX_BASELINE_MM
 from photomodel.camera._pinhole import PinholeCamera
 from photomodel.geometry import make_transform
+
+_ROTATION_ATOL = 1e-5  # R R^T = I and det R = 1 to this (a file's R has 6-17 digits)
 
 
 @dataclass(frozen=True)
@@ -18,6 +21,12 @@ class StereoRig:
 
     ``X2 = R @ X1 + T`` (as ``cv2.stereoCalibrate`` returns), ``T`` in mm, so
     ``T_cam2_cam1 = [[R, T], [0, 1]]``.
+
+    Raises
+    ------
+    ValueError
+        ``R`` is not a rotation (orthonormal, det +1, to 1e-5), ``T`` is not finite or longer
+        than :data:`~photomodel._limits.MAX_BASELINE_MM`.
     """
 
     cam1: PinholeCamera
@@ -28,8 +37,12 @@ class StereoRig:
     def __post_init__(self) -> None:
         R = np.asarray(self.R, dtype=np.float64).reshape(3, 3)
         T = np.asarray(self.T, dtype=np.float64).reshape(3)
-        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+        if not np.isfinite(R).all() or not np.allclose(R @ R.T, np.eye(3), atol=_ROTATION_ATOL) \
+                or not abs(np.linalg.det(R) - 1.0) <= _ROTATION_ATOL:
             raise ValueError("R: expected a rotation matrix (orthonormal, det +1)")
+        if not np.isfinite(T).all() or np.linalg.norm(T) > MAX_BASELINE_MM:
+            raise ValueError(f"T: expected a finite translation of at most {MAX_BASELINE_MM:g} "
+                             "mm")
         object.__setattr__(self, "R", R)
         object.__setattr__(self, "T", T)
 

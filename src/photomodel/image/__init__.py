@@ -6,14 +6,16 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_hsv": ["bgr_to_hsv", "circular_mean_hue_deg", "hue_distance_deg"],
-        "_io": ["read_color_image", "write_image"],
+        "_io": ["decode_color_image", "read_color_image", "read_grey_image", "write_image"],
     },
 )
 
 __all__ = [
     "bgr_to_hsv",
     "circular_mean_hue_deg",
+    "decode_color_image",
     "hue_distance_deg",
     "read_color_image",
+    "read_grey_image",
     "write_image",
 ]

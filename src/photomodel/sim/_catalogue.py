@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.errors import InputError
-from photomodel.image import read_color_image
+from photomodel.image import read_color_image, read_grey_image
 from photomodel.sim._garments import _MARGIN_PX, Garment, _area_centroid_px, make_garment
 from photomodel.sim._textures import PlaneTexture
 
@@ -353,12 +353,7 @@ def load_garment(
     """
     image = read_color_image(image_path)
     mp = Path(mask_path)
-    if not mp.is_file():
-        raise InputError(mp, "mask file not found")
-    data = np.fromfile(mp, dtype=np.uint8)
-    mask = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
-    if mask is None:
-        raise InputError(mp, "not a readable mask image (corrupt or unsupported format)")
+    mask = read_grey_image(mp, "mask")
     if mask.shape != image.shape[:2]:
         raise InputError(mp, f"mask is {mask.shape[1]}x{mask.shape[0]} pixels but the photo "
                              f"{Path(image_path).name} is {image.shape[1]}x{image.shape[0]}")
