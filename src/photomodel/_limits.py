@@ -117,6 +117,9 @@ def checked_size(path: str | os.PathLike[str], kind: str, limit: int, hint: str 
     return size
 
 
+_CHUNK_BYTES = 1 << 20
+
+
 def read_capped(path: str | os.PathLike[str], kind: str, limit: int, hint: str = "") -> bytes:
     """The bytes of ``path``: at most ``limit`` of them are ever read (a file that grows
     after :func:`checked_size` looked is refused all the same)."""
@@ -124,8 +127,12 @@ def read_capped(path: str | os.PathLike[str], kind: str, limit: int, hint: str =
 
     checked_size(path, kind, limit, hint)
     try:
-        with open(path, "rb") as fh:
-            data = fh.read(limit + 1)
+        with open(path, "rb") as fh:  # in chunks: read(limit + 1) reserves limit bytes at once
+            chunks, total = [], 0
+            while total <= limit and (chunk := fh.read(min(_CHUNK_BYTES, limit + 1 - total))):
+                chunks.append(chunk)
+                total += len(chunk)
+            data = b"".join(chunks)
     except OSError as exc:
         raise InputError(path, f"cannot read the {kind} ({exc.strerror or exc})") from None
     if len(data) > limit:
