@@ -6,7 +6,11 @@ the CLI turns it into one line on stderr and a non-zero exit code, never a trace
 
 from __future__ import annotations
 
+import sys
+import warnings
+from collections.abc import Callable
 from os import PathLike
+from typing import TextIO
 
 __all__ = ["InputError", "InputWarning", "PhotomodelError", "NoGarmentError"]
 
@@ -59,3 +63,19 @@ class InputWarning(UserWarning):
         self.source = str(source)
         self.problem = problem
         super().__init__(f"{self.source}: {problem}")
+
+
+def one_line_input_warnings(default: Callable[..., None] | None = None) -> Callable[..., None]:
+    """A ``warnings.showwarning`` that prints an :class:`InputWarning` as one line
+    (``photomodel: warning: FILE: problem``) and hands other warnings to ``default`` (the
+    present ``warnings.showwarning``). The CLI and its worker processes install it."""
+    fallback = default or warnings.showwarning
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: TextIO | None = None, line: str | None = None) -> None:
+        if issubclass(category, InputWarning):
+            print(f"photomodel: warning: {message}", file=sys.stderr)
+        else:
+            fallback(message, category, filename, lineno, file, line)
+
+    return show

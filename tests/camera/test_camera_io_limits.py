@@ -292,3 +292,27 @@ def test_the_cli_prints_a_warning_and_an_error_one_line_each(tmp_path: Path, cap
     assert len(err) == 2, err
     assert err[0].startswith(f"photomodel: warning: {camera}: distance_mm = 0.4")
     assert err[1].startswith("photomodel: error: ") and "photo.bmp" in err[1]
+
+
+def test_a_focal_length_too_long_for_the_images_is_refused_before_the_search() -> None:
+    """Without a calibrated size, the focal length is checked against the images themselves
+    (a search's grids grow with f^2)."""
+    from photomodel.camera import PinholeCamera
+
+    K = np.array([[14000.0, 0, 320], [0, 14000.0, 240], [0, 0, 1]])
+    camera = PinholeCamera(K=K, dist=np.zeros(5))            # no image size: accepted
+    with pytest.raises(InputError, match=r"right\.png: the calibration's focal length 14000 px "
+                                         r"is more than 20 x this 640x480"):
+        camera.check_image(np.zeros((480, 640, 3), np.uint8), "right.png")
+    camera.check_image(np.zeros((960, 1280, 3), np.uint8), "right.png")  # 14000 <= 20 x 1280
+
+
+def test_input_warnings_print_as_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    from photomodel.errors import one_line_input_warnings
+
+    shown: list[object] = []
+    show = one_line_input_warnings(lambda *a: shown.append(a))
+    show(InputWarning("stereo.yaml", "T looks like metres"), InputWarning, "x.py", 1)
+    show(UserWarning("other"), UserWarning, "x.py", 1)
+    assert capsys.readouterr().err == "photomodel: warning: stereo.yaml: T looks like metres\n"
+    assert len(shown) == 1                                    # other warnings go on as before

@@ -341,6 +341,11 @@ def test_simulate_clears_what_a_killed_simulate_left(capsys, tmp_path: Path) -> 
     (["cell", "--tolerance-mm", "-3"], "--tolerance-mm: expected a number greater than 0"),
     (["cell", "--conditions", "sunny"], "--conditions: "),
     (["cell", "--seed", "-2"], "--seed: expected an integer from 0 to"),
+    (["cell", "--box-size-mm", "0"],
+     "--box-size-mm: expected a number greater than 0 and at most 5000 mm, got 0"),
+    (["cell", "--box-mm", "300", "nan", "0"], "--box-mm (y): expected a number from -5000"),
+    (["cell", "--approach-mm", "-1"], "--approach-mm: expected a number from 0 to 5000 mm"),
+    (["cell", "--box-yaw-deg", "inf"], "--box-yaw-deg: expected a number from -360 to 360"),
     (["demo", "--seed", "-1"], "--seed: expected an integer from 0 to 4294967295, got -1"),
 ])
 def test_option_errors_name_the_option_and_the_range(capsys, tmp_path: Path, argv: list[str],

@@ -169,11 +169,20 @@ class PinholeCamera:
         return xy
 
     def check_image(self, image: NDArray, source: str = "image") -> None:
-        """Raise ``InputError`` when an image's size differs from the calibrated size."""
+        """Raise ``InputError`` when an image's size differs from the calibrated size, or (size
+        not calibrated) the focal length is more than ``MAX_FOCAL_PER_SIDE`` x its larger side."""
         from photomodel.errors import InputError
 
+        h, w = image.shape[:2]
+        focal_px = max(self.K[0, 0], self.K[1, 1])
+        if not (self.width_px and self.height_px) and focal_px > MAX_FOCAL_PER_SIDE * max(w, h):
+            # checked at load time when the calibration gives its size; a search's grids
+            # grow with f^2, so a wrong focal length must not reach them
+            raise InputError(source, f"the calibration's focal length {focal_px:g} px is more "
+                                     f"than {MAX_FOCAL_PER_SIDE:g} x this {w}x{h} image's "
+                                     "larger side: a calibration for another camera or in "
+                                     "other units?")
         if self.width_px and self.height_px:
-            h, w = image.shape[:2]
             if (w, h) != (self.width_px, self.height_px):
                 raise InputError(
                     source,

@@ -11,8 +11,8 @@ import argparse
 import os
 import sys
 import warnings
-from collections.abc import Callable, Sequence
-from typing import NoReturn, TextIO
+from collections.abc import Sequence
+from typing import NoReturn
 
 from photomodel import __version__
 from photomodel.cli import (
@@ -28,7 +28,7 @@ from photomodel.cli import (
     _simulate,
     _warmup,
 )
-from photomodel.errors import InputWarning, PhotomodelError
+from photomodel.errors import PhotomodelError, one_line_input_warnings
 
 EXIT_INPUT_ERROR = 2
 
@@ -64,19 +64,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _show_input_warning(default: Callable[..., None]) -> Callable[..., None]:
-    """``warnings.showwarning`` that prints an InputWarning as one line."""
-
-    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
-             file: TextIO | None = None, line: str | None = None) -> None:
-        if issubclass(category, InputWarning):
-            print(f"photomodel: warning: {message}", file=sys.stderr)
-        else:
-            default(message, category, filename, lineno, file, line)
-
-    return show
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     # OpenCV's own log (a decoder's complaint about a damaged file) would be a second line;
@@ -85,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     with warnings.catch_warnings():
-        warnings.showwarning = _show_input_warning(warnings.showwarning)
+        warnings.showwarning = one_line_input_warnings(warnings.showwarning)
         return _run(args)
 
 

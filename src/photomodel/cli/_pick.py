@@ -6,6 +6,7 @@ import argparse
 import json
 from typing import TYPE_CHECKING
 
+from photomodel.cli._options import check_float
 from photomodel.errors import InputError
 from photomodel.robot._arm import available_link_sets
 
@@ -36,11 +37,23 @@ def add_layout_options(p: argparse.ArgumentParser) -> None:
                    help="lift after grasping")
 
 
+MAX_CELL_MM = 5000.0
+"""Bound on the cell's lengths (box position and size, TCP, approach, retreat): the PA10-7C
+reaches about 1 m."""
+
+
 def layout_and_settings(args: argparse.Namespace,
                         grasp_mm: tuple[float, float] = (0.0, 0.0)
                         ) -> tuple[CellLayout, PickSettings]:
     from photomodel.robot import CellLayout, Gripper, PickSettings
 
+    for i, axis in enumerate("xyz"):
+        check_float(f"--box-mm ({axis})", args.box_mm[i], -MAX_CELL_MM, MAX_CELL_MM, unit="mm")
+    check_float("--box-yaw-deg", args.box_yaw_deg, -360.0, 360.0, unit="deg")
+    check_float("--box-size-mm", args.box_size_mm, 0.0, MAX_CELL_MM, lo_open=True, unit="mm")
+    check_float("--tcp-mm", args.tcp_mm, 0.0, MAX_CELL_MM, unit="mm")
+    check_float("--approach-mm", args.approach_mm, 0.0, MAX_CELL_MM, unit="mm")
+    check_float("--retreat-mm", args.retreat_mm, 0.0, MAX_CELL_MM, unit="mm")
     try:
         layout = CellLayout(box_centre_mm=tuple(args.box_mm), box_yaw_deg=args.box_yaw_deg,
                             box_size_mm=args.box_size_mm)

@@ -20,13 +20,14 @@ import os
 import platform
 import subprocess
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from photomodel.errors import InputError
+from photomodel.errors import InputError, one_line_input_warnings
 from photomodel.experiments._lock import LOCK_NAME, die_with_parent, run_lock
 from photomodel.experiments._records import append_records, done_trial_ids
 from photomodel.experiments._trials import (
@@ -136,8 +137,10 @@ def pool_stream(run: Callable[[Any, Any], dict[str, Any]], config: Any, trials: 
 
 
 def init_worker(parent_pid: int) -> None:
-    """Initialiser of a pool worker: end with the parent ``parent_pid``, one numba thread."""
+    """Initialiser of a pool worker: end with the parent ``parent_pid``, one numba thread,
+    input warnings printed as the CLI prints them (one line)."""
     die_with_parent(parent_pid)
+    warnings.showwarning = one_line_input_warnings()
     limit_threads()
 
 

@@ -40,6 +40,7 @@ from skimage.measure import find_contours
 from photomodel.camera import PinholeCamera
 from photomodel.fitness._prepared import Kept, PreparedModel, as_prepared
 from photomodel.image._features import linear_intensity, log_opponent
+from photomodel.image._sample import sample_bilinear
 from photomodel.model import PhotoModel
 
 __all__ = ["ModelSamples", "SampleSpacing", "model_samples"]
@@ -158,14 +159,6 @@ def _resample_closed(points: NDArray[np.float64], step: float) -> NDArray[np.flo
     return np.column_stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])])
 
 
-def _lookup(image: NDArray[np.float32], uv: NDArray[np.float64]) -> NDArray[np.float32]:
-    """Bilinear samples of ``image`` (H, W[, C]) at pixels ``uv`` (N, 2)."""
-    maps = uv.astype(np.float32).reshape(-1, 1, 2)
-    out = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_REPLICATE)
-    return out.reshape(len(uv), -1)
-
-
 def model_samples(model: PhotoModel | PreparedModel, spacing: SampleSpacing) -> ModelSamples:
     """Sample points and colours of ``model`` at ``spacing`` (see the module docstring).
 
@@ -211,7 +204,7 @@ def _coloured(model: PhotoModel, geometry: _Geometry, spacing: SampleSpacing) ->
         photo = np.clip(np.rint(blurred), 0, 255).astype(np.uint8)
     colours = _garment_blur(log_opponent(photo), mask,
                             max(spacing.blur_mm * geometry.px_per_mm, 0.3))
-    f_in = np.ascontiguousarray(_lookup(colours, geometry.uv_in), dtype=np.float64)
+    f_in = np.ascontiguousarray(sample_bilinear(colours, geometry.uv_in), dtype=np.float64)
     return ModelSamples(geometry.p_in, f_in, geometry.p_out,
                         np.ascontiguousarray(f_in[geometry.nearest_in]), geometry.table_out)
 
@@ -239,13 +232,13 @@ def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
     # Orient normals outwards: a step along them must leave the mask.
     dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    probe = _lookup(dist_in, to_crop(edge + 3.0 * normal / px_per_mm) + pad)[:, 0]
+    probe = sample_bilinear(dist_in, to_crop(edge + 3.0 * normal / px_per_mm) + pad)[:, 0]
     if np.mean(probe > 0) > 0.5:
         normal = -normal
 
     def keep(xy: NDArray[np.float64], dist: NDArray[np.float32], d_mm: float
              ) -> NDArray[np.bool_]:
-        d = _lookup(dist, to_crop(xy) + pad)[:, 0] / px_per_mm
+        d = sample_bilinear(dist, to_crop(xy) + pad)[:, 0] / px_per_mm
         return d >= 0.6 * d_mm
 
     inner = edge - spacing.ring_mm * normal

@@ -7,6 +7,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     submod_attrs={
         "_hsv": ["bgr_to_hsv", "circular_mean_hue_deg", "hue_distance_deg"],
         "_io": ["decode_color_image", "read_color_image", "read_grey_image", "write_image"],
+        "_sample": ["sample_bilinear"],
     },
 )
 
@@ -17,5 +18,6 @@ __all__ = [
     "hue_distance_deg",
     "read_color_image",
     "read_grey_image",
+    "sample_bilinear",
     "write_image",
 ]

@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera
 from photomodel.errors import InputError, NoGarmentError
-from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg
+from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg, sample_bilinear
 from photomodel.model._config import BuildConfig
 from photomodel.model._photomodel import PhotoModel
 
@@ -184,7 +184,7 @@ def build_photo_model(
     keep = _lookup(dist_in, uv_grid) >= inset_px + 0.5 * step_px
     points_in = np.concatenate([grid[keep], ring_in])
     uv_in = to_pixels(points_in)
-    hsv_in = bgr_to_hsv(_sample_bilinear(smooth_photo, uv_in))
+    hsv_in = bgr_to_hsv(sample_bilinear(smooth_photo, uv_in))
 
     # S_out: offset rings in the band outside the outline.
     radii_mm = cfg.band_gap_mm + np.arange(0.0, cfg.band_width_mm + 1e-9, cfg.step_mm)
@@ -301,18 +301,6 @@ def _lookup(image: NDArray, uv: NDArray[np.float64]) -> NDArray:
     out = np.full(len(uv), -np.inf)
     out[inside] = image[v[inside], u[inside]]
     return out
-
-
-def _sample_bilinear(image: NDArray[np.uint8], uv: NDArray[np.float64]) -> NDArray[np.uint8]:
-    # Rows of at most 4096 samples: cv2.remap takes no map side over 32767 (a fine --step-mm).
-    n = len(uv)
-    cols = min(max(n, 1), 4096)
-    rows = max(-(-n // cols), 1)
-    maps = np.zeros((rows * cols, 2), dtype=np.float32)
-    maps[:n] = uv
-    out = cv2.remap(image, maps[:, 0].reshape(rows, cols), maps[:, 1].reshape(rows, cols),
-                    cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return out.reshape(-1, image.shape[2])[:n]
 
 
 def _largest_contour(mask: NDArray[np.uint8]) -> NDArray[np.float64]:
