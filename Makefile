@@ -47,6 +47,7 @@ docs: $(STAMP)
 		--seed 7 --force --contact-sheet docs/sim_nuisances.png
 	$(BIN)/photomodel simulate --out build/docs/lenses --garments No.1 \
 		--conditions wide-lens --seed 7 --force --contact-sheet docs/sim_wide_lens.png
+	$(BIN)/python scripts/bad_inputs.py --out docs/bad-inputs.md
 
 clean:
 	rm -rf $(VENV) build .pytest_cache

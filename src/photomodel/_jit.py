@@ -188,6 +188,15 @@ class _FunctionCache(caching.FunctionCache):
 
     _impl_class = _CacheImpl
 
+    def __init__(self, py_func: Callable[..., Any], options: str = "") -> None:
+        super().__init__(py_func)
+        self._options = options
+
+    def _index_key(self, sig: Any, codegen: Any) -> Any:
+        # numba's key holds the bytecode, not the compile options: a kernel compiled
+        # before its options changed (nogil, fastmath) must not be loaded after
+        return (*super()._index_key(sig, codegen), self._options)
+
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         try:
             return super().load_overload(sig, target_context)
@@ -208,14 +217,16 @@ class _FunctionCache(caching.FunctionCache):
 
 def njit(func: Callable[..., Any] | None = None, **options: Any) -> Any:
     """``numba.njit`` with the package's cache (:data:`CACHE`): ``@njit`` or
-    ``@njit(parallel=True, fastmath=True, ...)``, numba's options except ``cache``."""
+    ``@njit(parallel=True, fastmath=True, ...)``, numba's options except ``cache``;
+    ``nogil=True`` unless told otherwise (kernels run in several threads at once)."""
     options.pop("cache", None)
+    options.setdefault("nogil", True)   # a service runs searches in threads
 
     def decorate(f: Callable[..., Any]) -> Any:
         dispatcher = numba.njit(**options)(f)
         if CACHE.enabled:
             try:
-                dispatcher._cache = _FunctionCache(f)
+                dispatcher._cache = _FunctionCache(f, repr(sorted(options.items())))
             except (OSError, RuntimeError):
                 pass    # no cache for this one (a source numba cannot locate): it compiles
         return dispatcher

@@ -106,8 +106,11 @@ def checked_size(path: str | os.PathLike[str], kind: str, limit: int, hint: str 
 
     p = Path(path)
     try:
+        if p.is_dir():
+            raise InputError(p, f"is a directory, not the {kind}")
         if not p.is_file():
-            raise InputError(p, f"{kind} not found")
+            raise InputError(p, f"{kind} not found" if not p.exists()
+                             else f"is not a regular file, not the {kind}")
         size = p.stat().st_size
     except OSError as exc:
         raise InputError(p, f"cannot read the {kind} ({exc.strerror or exc})") from None

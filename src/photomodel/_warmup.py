@@ -39,8 +39,8 @@ if TYPE_CHECKING:
     from photomodel.model import PhotoModel
     from photomodel.search import SearchSpace
 
-__all__ = ["GROUPS", "SIMULATOR_GROUP", "GroupReport", "Scene", "WarmupReport", "make_scene",
-           "warmup"]
+__all__ = ["GROUPS", "SIMULATOR_GROUP", "GroupReport", "Scene", "WarmupReport", "load_kernels",
+           "make_scene", "warmup"]
 
 
 @dataclass(frozen=True)
@@ -417,6 +417,15 @@ def _probe(simulator: bool) -> bool:
     except _NotCached:
         return False
     return True
+
+
+def load_kernels() -> None:
+    """Load every kernel ``locate`` and ``identify`` use into this process (compiling any
+    that is not cached): one locate and one identify of the synthetic scene. A resident
+    service calls it after :func:`warmup`, so that its first request loads nothing."""
+    scene = _image_features(make_scene())
+    _helpers(scene)
+    _check(scene)
 
 
 def _cpus() -> int:

@@ -233,8 +233,11 @@ def test_check_image_rejects_another_size_naming_the_source(shape: tuple[int, ..
     assert info.value.source == "scenes/0007/right.png"
 
 
-def test_check_image_without_calibrated_size_accepts_anything() -> None:
-    PinholeCamera(K_TEST, DIST_5).check_image(np.zeros((17, 23, 3), np.uint8), "x.png")
+def test_check_image_without_calibrated_size_accepts_any_plausible_size() -> None:
+    camera = PinholeCamera(K_TEST, DIST_5)
+    camera.check_image(np.zeros((170, 230, 3), np.uint8), "x.png")
+    with pytest.raises(InputError, match="more than 20 x this 23x17 image"):
+        camera.check_image(np.zeros((17, 23, 3), np.uint8), "x.png")
 
 
 # --- StereoRig -----------------------------------------------------------------------------

@@ -174,7 +174,7 @@ def test_not_an_image(tmp_path: Path, capfd, data: bytes) -> None:
 
 def test_missing_file_and_directory(tmp_path: Path, capfd) -> None:
     assert "not found" in _refused(tmp_path / "nowhere.png", capfd)
-    assert "not found" in _refused(tmp_path, capfd)
+    assert "is a directory, not the image file" in _refused(tmp_path, capfd)
 
 
 def test_greyscale_is_refused(tmp_path: Path, capfd) -> None:

@@ -33,11 +33,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from photomodel.camera import load_stereo
     from photomodel.cli._models import warn_skipped
+    from photomodel.cli._options import check_float
     from photomodel.identify import Identifier, IdentifyConfig
     from photomodel.image import read_color_image
     from photomodel.library import ModelLibrary
     from photomodel.locate import threshold_path
 
+    if args.min_score is not None:
+        check_float("--min-score", args.min_score, 0.0, 1.0)
     try:
         config = IdentifyConfig(min_score=args.min_score, max_candidates=args.max_candidates)
     except ValueError as exc:

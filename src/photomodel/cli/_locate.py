@@ -68,8 +68,10 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(given[0], "applies to --method paper only")
     if args.generations is not None and args.generations < 1:
         raise InputError("--generations", f"expected a positive count, got {args.generations}")
-    if args.min_score is not None and not 0.0 <= args.min_score <= 1.0:
-        raise InputError("--min-score", f"expected a score in [0, 1], got {args.min_score}")
+    if args.min_score is not None:
+        from photomodel.cli._options import check_float
+
+        check_float("--min-score", args.min_score, 0.0, 1.0)
     if args.overlay is not None and args.overlay.suffix.lower() not in IMAGE_SUFFIXES:
         raise InputError(args.overlay, f"unknown image type; use one of {IMAGE_SUFFIXES}")
     from photomodel.camera import load_stereo

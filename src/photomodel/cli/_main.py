@@ -25,6 +25,7 @@ from photomodel.cli import (
     _locate,
     _models,
     _pick,
+    _serve,
     _simulate,
     _warmup,
 )
@@ -50,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"photomodel {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.commands = sub.choices  # type: ignore[attr-defined]
     _build.add_parser(sub)
     _locate.add_parser(sub)
     _identify.add_parser(sub)
@@ -60,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     _handeye.add_parser(sub)
     _pick.add_parser(sub)
     _cell.add_parser(sub)
+    _serve.add_parser(sub)
     _warmup.add_parser(sub)
     return parser
 
@@ -70,7 +73,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # photomodel reports the problem itself. Set before the commands import cv2.
     os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:   # named by the sub-command's parser, whose --help lists what it takes
+        commands = getattr(parser, "commands", {})
+        commands.get(args.command, parser).error(f"unrecognized arguments: {' '.join(extra)}")
     with warnings.catch_warnings():
         warnings.showwarning = one_line_input_warnings(warnings.showwarning)
         return _run(args)

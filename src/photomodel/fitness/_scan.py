@@ -456,7 +456,7 @@ def _nearest(colours: NDArray[np.float64], palette: NDArray[np.float64],
     return np.argmin(d2, axis=1)
 
 
-@njit(nogil=True)
+@njit
 def _agreements(image, colours, weights):  # pragma: no cover - compiled
     """``exp(-d^2 / 2)`` of every pixel's feature (H, W, 3) float32 to each of ``colours``
     (C, 3), ``d^2`` weighted by ``weights`` (3,): (C, H, W) float32."""

@@ -29,7 +29,7 @@ def rotation_from_eps(eps: ArrayLike) -> NDArray[np.float64]:
     return R.reshape(e.shape[:-1] + (3, 3))
 
 
-@njit(nogil=True)
+@njit
 def _rotations(e: NDArray[np.float64], first: int) -> NDArray[np.float64]:  # pragma: no cover
     """Rotation matrices (N, 3, 3) of the quaternion vector parts in columns ``first`` to
     ``first + 2`` of ``e`` (N, K): one compiled specialisation for Python's calls and
@@ -77,7 +77,7 @@ def strained_matrices(poses: ArrayLike, strain: ArrayLike) -> NDArray[np.float64
     return _maps(np.ascontiguousarray(p), np.ascontiguousarray(e.reshape(-1, 3)))
 
 
-@njit(nogil=True)
+@njit
 def _maps(p: NDArray[np.float64], e: NDArray[np.float64]
           ) -> NDArray[np.float64]:  # pragma: no cover - numba
     """Maps (N, 4, 4) of pose vectors ``p`` (N, 6) strained by ``e`` (1, 3) or (N, 3): the
@@ -156,7 +156,7 @@ def facing_pose_vectors(flat: ArrayLike, facing: ArrayLike) -> NDArray[np.float6
     return _facing(np.ascontiguousarray(f), float(w0), float(a), float(b), float(c))
 
 
-@njit(nogil=True)
+@njit
 def _facing(f: NDArray[np.float64], w0: float, a: float, b: float, c: float
             ) -> NDArray[np.float64]:  # pragma: no cover - numba
     """:func:`facing_pose_vectors` of flat pose vectors ``f`` (N, 6) and the plane's

@@ -31,7 +31,9 @@ class Identifier:
 
     Parameters
     ----------
-    library : ModelLibrary or sequence of PhotoModel
+    library : ModelLibrary or sequence of PhotoModel or Locator
+        A :class:`~photomodel.Locator` given is used as it is (it must be for ``rig``): a
+        service that adds one model makes a new Identifier without preparing the others.
     rig : StereoRig
     space : SearchSpace, optional
         The pose search box of every model (default as :class:`~photomodel.Locator`).
@@ -42,7 +44,7 @@ class Identifier:
         else :func:`~photomodel.locate.threshold_path`'s).
     """
 
-    def __init__(self, library: ModelLibrary | Sequence[PhotoModel], rig: StereoRig,
+    def __init__(self, library: ModelLibrary | Sequence[PhotoModel | Locator], rig: StereoRig,
                  space: SearchSpace | None = None, *, config: IdentifyConfig | None = None,
                  threshold: str | os.PathLike[str] | None = None) -> None:
         root = None
@@ -59,7 +61,12 @@ class Identifier:
                                                               library=root).min_score)
         self.config = config
         self.rig = rig
-        self.locators = [Locator(m, rig, space, min_score=config.min_score) for m in models]
+        for m in models:
+            if isinstance(m, Locator) and m.rig is not rig:
+                raise ValueError(f"library: the Locator of {m.model.name!r} is for another rig")
+        self.locators = [m if isinstance(m, Locator)
+                         else Locator(m, rig, space, min_score=config.min_score)
+                         for m in models]
         self.space = self.locators[0].space if self.locators else (
             space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing))
 

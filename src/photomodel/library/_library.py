@@ -418,6 +418,18 @@ class ModelLibrary:
         if name is not None and name != model.name:
             model = PhotoModel(**{**model.__dict__, "name": name})
         check_model_name(model.name, str(model_path) if name is None else "name")
+        return self.add_model(model, replace=replace)
+
+    def add_model(self, model: PhotoModel, *, replace: bool = False) -> LibraryEntry:
+        """Save ``model`` into the library as ``DIR/<model.name>.npz`` and index it (what
+        :meth:`add` does after reading its file; a service registering a garment calls it).
+
+        Raises
+        ------
+        InputError
+            A bad or taken name.
+        """
+        check_model_name(model.name)
         with self._locked():   # read, change and write the index as one step
             scan = self.scan()
             taken = {e.name: e for e in scan.entries}

@@ -12,17 +12,19 @@ from photomodel.model import PhotoModel
 __all__ = ["draw_overlay"]
 
 
-def draw_overlay(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np.uint8],
                  left_bgr: NDArray[np.uint8], A_cam1_model: NDArray[np.float64],
                  caption: str = "") -> NDArray[np.uint8]:
     """Left image | right image with the model outline, S_in points and axes at the pose.
 
     ``A_cam1_model`` maps model points into camera 1: a pose ``T_cam1_model``, or the
     strained map the search scored (:attr:`~photomodel.locate.LocateResult.A_cam1_model`).
-    The left (camera 2) image is drawn on the left, as a person sees the scene.
+    The left (camera 2) image is drawn on the left, as a person sees the scene. With no
+    ``model`` (or a pose of NaN) only the pair and the caption are drawn.
     """
-    uv1, uv2 = rig.project_poses(A_cam1_model, model.outline_mm)
-    in1, in2 = rig.project_poses(A_cam1_model, model.points_in_mm)
+    none = np.zeros((0, 3))
+    uv1, uv2 = rig.project_poses(A_cam1_model, none if model is None else model.outline_mm)
+    in1, in2 = rig.project_poses(A_cam1_model, none if model is None else model.points_in_mm)
     axes = np.array([[0, 0, 0], [40, 0, 0], [0, 40, 0]], dtype=np.float64)
     ax1, ax2 = rig.project_poses(A_cam1_model, axes)
     panels = []

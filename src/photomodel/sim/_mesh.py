@@ -180,7 +180,7 @@ def field_of_view_radius(camera: PinholeCamera, margin: float = 1.05) -> float:
                                        camera.width_px, camera.height_px)
 
 
-@njit(nogil=True)
+@njit
 def _rasterize(xy: NDArray[np.float64], depth: NDArray[np.float64], attr: NDArray[np.float32],
                tris: NDArray[np.int32], zbuf: NDArray[np.float64], out: NDArray[np.float32],
                covered: NDArray[np.bool_]) -> None:  # pragma: no cover - numba

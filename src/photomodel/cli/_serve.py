@@ -1,0 +1,70 @@
+"""``photomodel serve``: the resident cell service (HTTP; contract in docs/contracts.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from photomodel.errors import InputError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("serve", help="run the cell service (HTTP) with every model prepared",
+                       description="Keep the calibration, the model library and every prepared "
+                                   "model in memory and answer /locate, /identify and /models "
+                                   "over HTTP; the operator page is at /. /health says "
+                                   "'warming' until every kernel is loaded and every model "
+                                   "prepared.")
+    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration of the hand "
+                                                              "rig")
+    p.add_argument("--models", required=True, type=Path,
+                   help="model library directory (created when missing)")
+    p.add_argument("--camera", type=Path, default=None,
+                   help="model station calibration (needed to register garments)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to bind (default 127.0.0.1; any other needs --token-file)")
+    p.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
+    p.add_argument("--token-file", type=Path, default=None,
+                   help="file holding a bearer token every request must carry")
+    p.add_argument("--searches", type=int, default=2,
+                   help="searches run at once (default 2; more wait their turn)")
+    p.add_argument("--max-upload-mb", type=int, default=32,
+                   help="largest request body in MiB (default 32; 413 beyond)")
+    p.add_argument("--results-kept", type=int, default=20,
+                   help="recent results kept with their overlays (default 20)")
+    p.add_argument("--threshold-file", type=Path, default=None,
+                   help="found threshold (default: the library's threshold.json, else the "
+                        "user's)")
+    p.add_argument("--log-level", default="info",
+                   choices=["critical", "error", "warning", "info", "debug"])
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from photomodel.cli._options import check_int
+
+    check_int("--port", args.port, 1, 65535)
+    check_int("--searches", args.searches, 1, 64)
+    check_int("--max-upload-mb", args.max_upload_mb, 1, 1024)
+    check_int("--results-kept", args.results_kept, 1, 1000)
+    from photomodel.service._cell import CellService, ServiceConfig, read_token
+    from photomodel.service._server import is_loopback, serve
+
+    token = read_token(args.token_file) if args.token_file is not None else None
+    if token is None and not is_loopback(args.host):
+        raise InputError("--host", f"binding to {args.host} (not this machine only) needs "
+                                   "--token-file: every request must then carry the token")
+    config = ServiceConfig(stereo=args.stereo, models=args.models, camera=args.camera,
+                           searches=args.searches, results_kept=args.results_kept,
+                           max_upload_bytes=args.max_upload_mb << 20, token=token,
+                           threshold=args.threshold_file)
+    cell = CellService(config)
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    say(f"serve: http://{args.host}:{args.port}/ (warming up: /health says 'warming' until "
+        "ready)")
+    serve(cell, args.host, args.port, progress=say, log_level=args.log_level)
+    return 0

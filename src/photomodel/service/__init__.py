@@ -1,0 +1,18 @@
+"""The cell service: a resident photomodel that a cell controller calls over HTTP
+(``photomodel serve``; contract in docs/contracts.md)."""
+
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_app": ["create_app"],
+        "_cell": ["CellService", "Conflict", "NotFound", "ServiceConfig", "Unavailable",
+                  "read_token"],
+        "_ros": ["pose_stamped"],
+        "_server": ["ServiceThread", "serve"],
+    },
+)
+
+__all__ = ["CellService", "Conflict", "NotFound", "ServiceConfig", "ServiceThread",
+           "Unavailable", "create_app", "pose_stamped", "read_token", "serve"]

@@ -1,0 +1,391 @@
+"""The cell service's HTTP interface (Starlette): routes, the bearer token, bounded uploads,
+JSON errors, Prometheus metrics. The work itself is :class:`CellService`'s, run off the event
+loop in worker threads (``searches`` at once)."""
+
+from __future__ import annotations
+
+import contextlib
+import hmac
+import json
+import math
+import re
+import threading
+import time
+from collections.abc import AsyncIterator, Callable
+from importlib import resources
+from typing import Any
+
+import anyio
+import anyio.to_thread
+from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram, generate_latest
+from prometheus_client.exposition import CONTENT_TYPE_LATEST
+from starlette.applications import Starlette
+from starlette.datastructures import FormData, UploadFile
+from starlette.exceptions import HTTPException
+from starlette.formparsers import MultiPartException
+from starlette.requests import ClientDisconnect, Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from photomodel.errors import InputError, PhotomodelError
+from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
+
+__all__ = ["create_app"]
+
+_STATUS = {NotFound: 404, Conflict: 409, Unavailable: 503}
+_LATENCY_BUCKETS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 2.0,
+                      5.0, 10.0, 30.0)
+
+
+class _TooLarge(Exception):
+    """A request body over the configured bound."""
+
+
+def _finite(obj: Any) -> Any:
+    """``obj`` with every NaN or infinity as None (JSON has no NaN)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
+class _JSON(JSONResponse):
+    """A JSON answer; NaN and infinities (a score of nothing found) are sent as null."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(_finite(content), allow_nan=False, separators=(",", ":")).encode()
+
+
+def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
+    return _JSON({"error": message}, status_code=status, headers=headers)
+
+
+def _endpoint(path: str) -> str:
+    """A route label with bounded values (ids and names replaced) for metrics."""
+    parts = [p for p in path.split("/") if p]
+    if not parts:
+        return "/"
+    head = parts[0]
+    if head == "models" and len(parts) >= 2:
+        return "/models/{name}" + ("/preview.png" if len(parts) > 2 else "")
+    if head == "results" and len(parts) >= 2:
+        return "/results/{id}" + ("/overlay.png" if len(parts) > 2 else "")
+    known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static"}
+    return f"/{head}" if head in known else "other"
+
+
+class _Metrics:
+    """The service's Prometheus metrics, in a registry of its own."""
+
+    def __init__(self, cell: CellService) -> None:
+        self.registry = CollectorRegistry()
+        self.requests = Counter("photomodel_requests", "HTTP requests by endpoint and status",
+                                ["endpoint", "method", "status"], registry=self.registry)
+        self.errors = Counter("photomodel_errors", "HTTP answers with a 4xx or 5xx status",
+                              ["endpoint", "status"], registry=self.registry)
+        self.latency = Histogram("photomodel_request_seconds",
+                                 "Wall time of a request, by endpoint", ["endpoint"],
+                                 buckets=_LATENCY_BUCKETS_S, registry=self.registry)
+        self.in_flight = Gauge("photomodel_searches_in_flight",
+                               "Searches and registrations running now",
+                               registry=self.registry)
+        models = Gauge("photomodel_models", "Models prepared in memory", registry=self.registry)
+        models.set_function(lambda: len(cell.models()))
+        ready = Gauge("photomodel_ready", "1 when warmed up and serving",
+                      registry=self.registry)
+        ready.set_function(lambda: 1.0 if cell.status == "ok" else 0.0)
+
+
+class _Guard:
+    """Outermost ASGI layer: the bearer token (401), the metrics and the latency window, and
+    a JSON 500 for anything unforeseen (the service keeps running)."""
+
+    def __init__(self, app: ASGIApp, cell: CellService, metrics: _Metrics) -> None:
+        self.app = app
+        self.cell = cell
+        self.metrics = metrics
+        token = cell.config.token
+        self._expected = None if token is None else f"Bearer {token}".encode()
+
+    def _authorised(self, scope: Scope) -> bool:
+        if self._expected is None:
+            return True
+        for key, value in scope.get("headers", []):
+            if key == b"authorization":
+                return hmac.compare_digest(value, self._expected)
+        return False
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        t0 = time.perf_counter()
+        endpoint = _endpoint(scope["path"])
+        status = 500
+        started = False
+
+        async def tracked(message: Message) -> None:
+            nonlocal status, started
+            if message["type"] == "http.response.start":
+                status, started = message["status"], True
+            await send(message)
+
+        try:
+            if not self._authorised(scope):
+                await _error(401, "missing or wrong bearer token (Authorization: Bearer ...)",
+                             {"WWW-Authenticate": "Bearer"})(scope, receive, tracked)
+            else:
+                await self.app(scope, receive, tracked)
+        except Exception:  # noqa: BLE001 - already logged by Starlette; answer, stay up
+            if not started:
+                await _error(500, "internal error (see the service's log)")(scope, receive,
+                                                                            tracked)
+        finally:
+            seconds = time.perf_counter() - t0
+            method = scope.get("method", "")
+            m = self.metrics
+            m.requests.labels(endpoint, method, str(status)).inc()
+            m.latency.labels(endpoint).observe(seconds)
+            if status >= 400:
+                m.errors.labels(endpoint, str(status)).inc()
+            if method in ("POST", "DELETE"):
+                self.cell.latencies.add(f"{method} {endpoint}", status, seconds)
+
+
+async def _form(request: Request, limit: int) -> FormData:
+    """The request's multipart form, its body read up to ``limit`` bytes (413 beyond)."""
+    size = request.headers.get("content-length")
+    if size is not None and size.isdigit() and int(size) > limit:
+        raise _TooLarge()
+    ctype = request.headers.get("content-type", "")
+    if not ctype.startswith("multipart/form-data"):
+        raise InputError("request", "expected a multipart/form-data body (files and fields)")
+    chunks, total = [], 0
+    async for chunk in request.stream():
+        total += len(chunk)
+        if total > limit:
+            raise _TooLarge()
+        chunks.append(chunk)
+    body = b"".join(chunks)
+    sent = False
+
+    async def replay() -> Message:
+        nonlocal sent
+        if sent:
+            return {"type": "http.disconnect"}
+        sent = True
+        return {"type": "http.request", "body": body, "more_body": False}
+
+    try:
+        return await Request(request.scope, replay).form(max_files=8, max_fields=16)
+    except MultiPartException as exc:
+        raise InputError("request", f"malformed multipart body ({exc.message})") from None
+
+
+async def _file(form: FormData, name: str) -> bytes:
+    value = form.get(name)
+    if not isinstance(value, UploadFile):
+        raise InputError(name, "missing file (send it as a multipart file field)")
+    data = await value.read()
+    if not data:
+        raise InputError(name, "empty file")
+    return data
+
+
+def _field(form: FormData, name: str, required: bool = False) -> str | None:
+    value = form.get(name)
+    if value is None or value == "":
+        if required:
+            raise InputError(name, "missing field")
+        return None
+    if not isinstance(value, str):
+        raise InputError(name, "expected a text field, got a file")
+    return value
+
+
+def _seed(form: FormData) -> int | None:
+    text = _field(form, "seed")
+    if text is None:
+        return None
+    if not re.fullmatch(r"\d{1,10}", text.strip()) or int(text) > 2**32 - 1:
+        raise InputError("seed", f"expected an integer from 0 to 4294967295, got {text!r}")
+    return int(text)
+
+
+def _float(form: FormData, name: str) -> float | None:
+    text = _field(form, name)
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(name, f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise InputError(name, f"expected a finite number, got {text!r}")
+    return value
+
+
+def _bool(form: FormData, name: str) -> bool:
+    text = (_field(form, name) or "false").strip().lower()
+    if text not in ("true", "false", "1", "0", "yes", "no"):
+        raise InputError(name, f"expected true or false, got {text!r}")
+    return text in ("true", "1", "yes")
+
+
+def _static(name: str) -> bytes:
+    return resources.files("photomodel.service").joinpath("static", name).read_bytes()
+
+
+_STATIC_TYPES = {"app.js": "text/javascript; charset=utf-8",
+                 "style.css": "text/css; charset=utf-8"}
+
+
+def create_app(cell: CellService, *, warm: bool = True,
+               progress: Callable[[str], None] | None = None) -> ASGIApp:
+    """The ASGI application of ``cell`` (serve it with uvicorn).
+
+    Parameters
+    ----------
+    cell : CellService
+    warm : bool
+        Start :meth:`CellService.warm` in a thread at start-up (``/health`` says
+        ``warming`` until it is done).
+    progress : callable, optional
+        Receives the warm-up's progress lines.
+    """
+    limiter = anyio.CapacityLimiter(cell.searches)
+    metrics = _Metrics(cell)
+    limit = cell.config.max_upload_bytes
+    page = _static("index.html")
+
+    async def work(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        limiter.total_tokens = cell.searches       # one at a time after a workqueue check
+        async with limiter:
+            metrics.in_flight.inc()
+            try:
+                return await anyio.to_thread.run_sync(lambda: fn(*args, **kwargs),
+                                                      limiter=limiter_unbounded)
+            finally:
+                metrics.in_flight.dec()
+
+    # the searches are bounded by ``limiter`` above; the thread pool itself must not be
+    limiter_unbounded = anyio.CapacityLimiter(64)
+
+    async def index(request: Request) -> Response:
+        return Response(page, media_type="text/html; charset=utf-8",
+                        headers={"Cache-Control": "no-store"})
+
+    async def static(request: Request) -> Response:
+        name = request.path_params["name"]
+        if name not in _STATIC_TYPES:
+            raise NotFound("static", f"no file {name!r}")
+        return Response(_static(name), media_type=_STATIC_TYPES[name])
+
+    async def health(request: Request) -> Response:
+        return _JSON(cell.health())
+
+    async def list_models(request: Request) -> Response:
+        return _JSON(cell.models())
+
+    async def add_model(request: Request) -> Response:
+        form = await _form(request, limit)
+        name = _field(form, "name", required=True)
+        photo, background = await _file(form, "photo"), await _file(form, "background")
+        summary = await work(cell.register, name, photo, background,
+                             _float(form, "distance_mm"), replace=_bool(form, "replace"))
+        return _JSON(summary, status_code=201)
+
+    async def delete_model(request: Request) -> Response:
+        return _JSON(await work(cell.remove, request.path_params["name"]))
+
+    async def preview(request: Request) -> Response:
+        png = await work(cell.preview_png, request.path_params["name"])
+        return Response(png, media_type="image/png")
+
+    async def locate(request: Request) -> Response:
+        form = await _form(request, limit)
+        model = _field(form, "model", required=True)
+        right, left = await _file(form, "right"), await _file(form, "left")
+        return _JSON(await work(cell.locate, model, right, left, _seed(form)))
+
+    async def identify(request: Request) -> Response:
+        form = await _form(request, limit)
+        right, left = await _file(form, "right"), await _file(form, "left")
+        return _JSON(await work(cell.identify, right, left, _seed(form)))
+
+    async def results(request: Request) -> Response:
+        return _JSON(cell.results.recent(20))
+
+    async def result(request: Request) -> Response:
+        found = cell.results.get(request.path_params["id"])
+        if found is None:
+            raise NotFound("result", f"no result {request.path_params['id']!r} (only the "
+                                     f"last {cell.results.size} are kept)")
+        return _JSON(found.answer)
+
+    async def overlay(request: Request) -> Response:
+        rid = request.path_params["id"]
+        png = await anyio.to_thread.run_sync(cell.results.overlay_png, rid,
+                                             limiter=limiter_unbounded)
+        if png is None:
+            raise NotFound("result", f"no result {rid!r} (only the last "
+                                     f"{cell.results.size} are kept)")
+        return Response(png, media_type="image/png")
+
+    async def stats(request: Request) -> Response:
+        return _JSON({"latency": cell.latencies.summary(), "health": cell.health()})
+
+    async def prometheus(request: Request) -> Response:
+        return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    async def on_photomodel_error(request: Request, exc: Exception) -> Response:
+        status = _STATUS.get(type(exc), 400)
+        headers = {"Retry-After": "5"} if status == 503 else None
+        return _error(status, str(exc), headers)
+
+    async def on_http(request: Request, exc: Exception) -> Response:
+        assert isinstance(exc, HTTPException)
+        return _error(exc.status_code, exc.detail, dict(exc.headers or {}))
+
+    async def on_too_large(request: Request, exc: Exception) -> Response:
+        return _error(413, f"request body larger than the {limit >> 20} MiB this service "
+                           "accepts (--max-upload-mb)")
+
+    async def on_disconnect(request: Request, exc: Exception) -> Response:
+        return _error(400, "the client closed the connection before the body was sent")
+
+    async def on_internal(request: Request, exc: Exception) -> Response:
+        return _error(500, "internal error (see the service's log)")
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: Starlette) -> AsyncIterator[None]:
+        if warm:
+            threading.Thread(target=cell.warm, args=(progress,), name="photomodel-warm",
+                             daemon=True).start()
+        yield
+
+    routes = [
+        Route("/", index),
+        Route("/static/{name}", static),
+        Route("/health", health),
+        Route("/models", list_models, methods=["GET"]),
+        Route("/models", add_model, methods=["POST"]),
+        Route("/models/{name}", delete_model, methods=["DELETE"]),
+        Route("/models/{name}/preview.png", preview),
+        Route("/locate", locate, methods=["POST"]),
+        Route("/identify", identify, methods=["POST"]),
+        Route("/results", results),
+        Route("/results/{id}", result),
+        Route("/results/{id}/overlay.png", overlay),
+        Route("/stats", stats),
+        Route("/metrics", prometheus),
+    ]
+    app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
+        PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,
+        ClientDisconnect: on_disconnect, Exception: on_internal})
+    app.state.cell = cell
+    return _Guard(app, cell, metrics)

@@ -1,0 +1,146 @@
+// The operator page: polls the service's JSON and draws the library, results and latency.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+let shownResults = "";
+let shownModels = "";
+
+async function getJSON(url) {
+  const response = await fetch(url, { cache: "no-store" });
+  const body = await response.json();
+  if (!response.ok) throw new Error(body.error || response.statusText);
+  return body;
+}
+
+function el(tag, attrs = {}, ...children) {
+  const node = document.createElement(tag);
+  for (const [key, value] of Object.entries(attrs)) {
+    if (key === "class") node.className = value; else node.setAttribute(key, value);
+  }
+  for (const child of children) node.append(child);
+  return node;
+}
+
+function fmt(value, digits = 2) {
+  return value === null || value === undefined ? "-" : Number(value).toFixed(digits);
+}
+
+async function refreshHealth() {
+  try {
+    const health = await getJSON("health");
+    $("status").textContent = health.status;
+    $("status").className = "badge " + health.status;
+    $("detail").textContent = `${health.detail} · ${health.models} models · ` +
+      `${health.searches} searches at once · photomodel ${health.version}`;
+  } catch (error) {
+    $("status").textContent = "unreachable";
+    $("status").className = "badge down";
+  }
+}
+
+async function refreshLibrary() {
+  const models = await getJSON("models");
+  const key = JSON.stringify(models.map((m) => [m.name, m.added_utc]));
+  $("model-count").textContent = `(${models.length})`;
+  $("library-empty").hidden = models.length > 0;
+  if (key === shownModels) return;
+  shownModels = key;
+  const cards = models.map((m) => {
+    const remove = el("button", { class: "danger", type: "button" }, "Delete");
+    remove.addEventListener("click", () => deleteModel(m.name));
+    return el("div", { class: "card", "data-model": m.name },
+      el("img", { src: `${m.preview}?t=${encodeURIComponent(m.added_utc)}`, alt: m.name }),
+      el("div", { class: "name" }, m.name),
+      el("div", { class: "muted" },
+         `${fmt(m.size_mm[0], 0)} x ${fmt(m.size_mm[1], 0)} mm · ${fmt(m.area_mm2 / 100, 0)} cm²`),
+      el("div", { class: "muted" }, m.colours.map((c) => c[0]).join(", ")),
+      remove);
+  });
+  $("library").replaceChildren(...cards);
+}
+
+async function deleteModel(name) {
+  if (!confirm(`Delete model ${name} from the library?`)) return;
+  const response = await fetch(`models/${encodeURIComponent(name)}`, { method: "DELETE" });
+  if (!response.ok) alert((await response.json()).error);
+  await refreshLibrary();
+}
+
+async function refreshResults() {
+  const results = await getJSON("results");
+  $("results-empty").hidden = results.length > 0;
+  const key = results.map((r) => r.id).join(",");
+  if (key === shownResults) return;
+  shownResults = key;
+  $("results").replaceChildren(...results.map((r) => {
+    const name = r.model || (r.best_candidate ? `(${r.best_candidate})` : "no model");
+    return el("div", { class: "result", "data-result": r.id },
+      el("a", { href: r.overlay, target: "_blank" },
+         el("img", { src: r.overlay, alt: `overlay of ${r.id}`, loading: "lazy" })),
+      el("div", {},
+         el("span", { class: r.found ? "found" : "missed" }, r.found ? "found" : "not found"),
+         ` ${r.kind} · ${name} · score ${fmt(r.score)} · ${fmt(r.seconds * 1000, 0)} ms`),
+      el("div", { class: "muted" }, r.time_utc));
+  }));
+}
+
+function drawLatency(latency) {
+  const svg = $("latency");
+  const recent = latency.recent.slice().reverse();
+  $("latency-summary").textContent = latency.count
+    ? `last ${latency.count} requests: p50 ${fmt(latency.p50_ms, 0)} ms, p99 ${fmt(latency.p99_ms, 0)} ms`
+    : "(no requests yet)";
+  const width = svg.clientWidth || 600;
+  const height = 120;
+  const top = Math.max(50, ...recent.map((r) => r.ms));
+  const step = width / 100;
+  const bars = recent.map((r, i) => {
+    const h = Math.max(1, (r.ms / top) * (height - 16));
+    const colour = r.status >= 400 ? "#b91c1c" : "#1d4ed8";
+    return `<rect x="${i * step}" y="${height - h}" width="${Math.max(1, step - 1)}" ` +
+      `height="${h}" fill="${colour}"><title>${r.endpoint} ${r.status}: ${r.ms} ms</title></rect>`;
+  });
+  svg.innerHTML = `<text x="4" y="12" font-size="11" fill="#6b7280">${fmt(top, 0)} ms</text>` +
+    bars.join("");
+}
+
+async function refreshLatency() {
+  const stats = await getJSON("stats");
+  drawLatency(stats.latency);
+}
+
+$("register").addEventListener("submit", async (event) => {
+  event.preventDefault();
+  const form = event.target;
+  const status = $("register-status");
+  const button = form.querySelector("button");
+  button.disabled = true;
+  status.className = "muted";
+  status.textContent = "building the photo-model ...";
+  try {
+    const data = new FormData(form);
+    if (!data.get("distance_mm")) data.delete("distance_mm");
+    const response = await fetch("models", { method: "POST", body: data });
+    const body = await response.json();
+    if (!response.ok) throw new Error(body.error || response.statusText);
+    status.textContent = `registered ${body.name}: ${fmt(body.size_mm[0], 0)} x ` +
+      `${fmt(body.size_mm[1], 0)} mm`;
+    form.reset();
+    await refreshLibrary();
+  } catch (error) {
+    status.className = "error";
+    status.textContent = error.message;
+  } finally {
+    button.disabled = false;
+  }
+});
+
+async function refresh() {
+  await refreshHealth();
+  for (const step of [refreshLibrary, refreshResults, refreshLatency]) {
+    try { await step(); } catch (error) { /* warming up or unreachable: shown in the badge */ }
+  }
+}
+
+refresh();
+setInterval(refresh, 2000);
