@@ -14,6 +14,7 @@ import time
 from collections.abc import AsyncIterator, Callable
 from importlib import resources
 from typing import Any
+from urllib.parse import parse_qs
 
 import anyio
 import anyio.to_thread
@@ -24,7 +25,7 @@ from starlette.datastructures import FormData, UploadFile
 from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 from starlette.requests import ClientDisconnect, Request
-from starlette.responses import JSONResponse, Response
+from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
 from starlette.routing import Route
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -36,6 +37,16 @@ __all__ = ["create_app"]
 _STATUS = {NotFound: 404, Conflict: 409, Unavailable: 503}
 _LATENCY_BUCKETS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 2.0,
                       5.0, 10.0, 30.0)
+
+
+_COOKIE = "photomodel_token"
+_LOGIN_PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8">
+<link rel="icon" href="data:,"><title>photomodel cell: token</title></head>
+<body style="font-family: system-ui, sans-serif; margin: 3em">
+<h1>photomodel cell</h1><p>This service needs its token (the one in its --token-file).</p>
+<form method="post" action="login"><input name="token" type="password" autofocus size="40">
+<button type="submit">Open</button> <span style="color: #b91c1c">{note}</span></form>
+</body></html>"""
 
 
 class _TooLarge(Exception):
@@ -112,12 +123,43 @@ class _Guard:
         self._expected = None if token is None else f"Bearer {token}".encode()
 
     def _authorised(self, scope: Scope) -> bool:
+        """The bearer header, or the cookie that ``/login`` sets for a browser."""
         if self._expected is None:
             return True
         for key, value in scope.get("headers", []):
             if key == b"authorization":
                 return hmac.compare_digest(value, self._expected)
+            if key == b"cookie":
+                for part in value.split(b";"):
+                    name, _, token = part.strip().partition(b"=")
+                    if name == _COOKIE.encode() and hmac.compare_digest(
+                            b"Bearer " + token, self._expected):
+                        return True
         return False
+
+    async def _login(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """``GET /login``: a form for the token; ``POST /login``: check it, set the cookie
+        (HttpOnly, SameSite=Strict) and go to the page."""
+        request = Request(scope, receive)
+        if request.method == "POST" and self._expected is not None:
+            body = b""
+            async for chunk in request.stream():
+                body += chunk
+                if len(body) > 4096:
+                    break
+            token = parse_qs(body.decode("utf-8", "replace")).get("token", [""])[0].strip()
+            if hmac.compare_digest(f"Bearer {token}".encode(), self._expected):
+                response: Response = RedirectResponse("./", status_code=303)
+                response.set_cookie(_COOKIE, token, httponly=True, samesite="strict")
+                await response(scope, receive, send)
+                return
+            await HTMLResponse(_LOGIN_PAGE.format(note="wrong token"), status_code=401)(
+                scope, receive, send)
+            return
+        if self._expected is None:
+            await RedirectResponse("./", status_code=303)(scope, receive, send)
+            return
+        await HTMLResponse(_LOGIN_PAGE.format(note=""))(scope, receive, send)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -135,7 +177,12 @@ class _Guard:
             await send(message)
 
         try:
-            if not self._authorised(scope):
+            if scope["path"] == "/login":
+                await self._login(scope, receive, tracked)
+            elif not self._authorised(scope) and scope["path"] == "/" and \
+                    scope.get("method") == "GET":
+                await RedirectResponse("login", status_code=303)(scope, receive, tracked)
+            elif not self._authorised(scope):
                 await _error(401, "missing or wrong bearer token (Authorization: Bearer ...)",
                              {"WWW-Authenticate": "Bearer"})(scope, receive, tracked)
             else:

@@ -41,6 +41,9 @@ def serve(cell: CellService, host: str = "127.0.0.1", port: int = 8080,
 class ServiceThread:
     """The service on a free loopback port in a daemon thread.
 
+    The warm-up compiles kernels that are not cached yet in spawned processes, so a script
+    that embeds the service needs the usual ``if __name__ == "__main__":`` guard.
+
     Examples
     --------
     >>> with ServiceThread(cell) as service:            # doctest: +SKIP

@@ -4,6 +4,7 @@
 const $ = (id) => document.getElementById(id);
 let shownResults = "";
 let shownModels = "";
+let serviceStatus = "connecting";
 
 async function getJSON(url) {
   const response = await fetch(url, { cache: "no-store" });
@@ -28,13 +29,16 @@ function fmt(value, digits = 2) {
 async function refreshHealth() {
   try {
     const health = await getJSON("health");
+    serviceStatus = health.status;
     $("status").textContent = health.status;
     $("status").className = "badge " + health.status;
     $("detail").textContent = `${health.detail} · ${health.models} models · ` +
       `${health.searches} searches at once · photomodel ${health.version}`;
   } catch (error) {
+    serviceStatus = "unreachable";
     $("status").textContent = "unreachable";
     $("status").className = "badge down";
+    $("detail").textContent = "no answer from the service (retrying every 2 s)";
   }
 }
 
@@ -43,6 +47,9 @@ async function refreshLibrary() {
   const key = JSON.stringify(models.map((m) => [m.name, m.added_utc]));
   $("model-count").textContent = `(${models.length})`;
   $("library-empty").hidden = models.length > 0;
+  $("library-empty").textContent = serviceStatus === "ok"
+    ? "No models yet: register a garment below."
+    : "The library's models show once the service has warmed up.";
   if (key === shownModels) return;
   shownModels = key;
   const cards = models.map((m) => {
@@ -53,10 +60,16 @@ async function refreshLibrary() {
       el("div", { class: "name" }, m.name),
       el("div", { class: "muted" },
          `${fmt(m.size_mm[0], 0)} x ${fmt(m.size_mm[1], 0)} mm · ${fmt(m.area_mm2 / 100, 0)} cm²`),
-      el("div", { class: "muted" }, m.colours.map((c) => c[0]).join(", ")),
+      el("div", { class: "colours" }, ...m.colours.map(swatch)),
       remove);
   });
   $("library").replaceChildren(...cards);
+}
+
+function swatch([colour, share]) {
+  const chip = el("span", { class: "swatch", title: `${colour}: ${fmt(share * 100, 0)} %` });
+  chip.style.backgroundColor = colour;   // an invalid value is ignored, never parsed as CSS
+  return chip;
 }
 
 async function deleteModel(name) {
@@ -88,7 +101,7 @@ function drawLatency(latency) {
   const svg = $("latency");
   const recent = latency.recent.slice().reverse();
   $("latency-summary").textContent = latency.count
-    ? `last ${latency.count} requests: p50 ${fmt(latency.p50_ms, 0)} ms, p99 ${fmt(latency.p99_ms, 0)} ms`
+    ? `last ${latency.count} request${latency.count === 1 ? "" : "s"}: p50 ${fmt(latency.p50_ms, 0)} ms, p99 ${fmt(latency.p99_ms, 0)} ms`
     : "(no requests yet)";
   const width = svg.clientWidth || 600;
   const height = 120;
