@@ -5,7 +5,7 @@ BIN     = $(VENV)/bin
 STAMP   = $(VENV)/.installed-stamp
 DEMO_DIR ?= build/demo
 
-.PHONY: demo test test-all lint bench docs study clean
+.PHONY: demo test test-all lint bench docs study clean serve
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -48,6 +48,31 @@ docs: $(STAMP)
 	$(BIN)/photomodel simulate --out build/docs/lenses --garments No.1 \
 		--conditions wide-lens --seed 7 --force --contact-sheet docs/sim_wide_lens.png
 	$(BIN)/python scripts/bad_inputs.py --out docs/bad-inputs.md
+
+# The cell service on a small simulated cell: the dataset and the model library are made once,
+# under $(SERVE_DIR) (delete it to start afresh); another port: `make serve PORT=8099`.
+PORT ?= 8080
+SERVE_DIR ?= build/serve
+SERVE_GARMENTS ?= No.1,No.3,No.5
+serve: $(STAMP) | $(SERVE_DIR)/models/index.json
+	$(BIN)/photomodel serve --stereo $(SERVE_DIR)/data/stereo.yaml --models $(SERVE_DIR)/models \
+		--camera $(SERVE_DIR)/data/model_camera.yaml --port $(PORT)
+
+$(SERVE_DIR)/data/truth.json: | $(STAMP)
+	$(BIN)/photomodel simulate --out $(SERVE_DIR)/data --garments $(SERVE_GARMENTS) --scenes 3 \
+		--seed 3 --force
+
+# every model is built before the library is made, so that a failed build leaves no library
+$(SERVE_DIR)/models/index.json: | $(SERVE_DIR)/data/truth.json
+	set -e; garments="$$(echo $(SERVE_GARMENTS) | tr , ' ')"; \
+	for g in $$garments; do \
+		$(BIN)/photomodel build --photo $(SERVE_DIR)/data/models/$$g/photo.bmp \
+			--background $(SERVE_DIR)/data/models/$$g/background.bmp \
+			--camera $(SERVE_DIR)/data/model_camera.yaml --out $(SERVE_DIR)/built/$$g.npz \
+			--name $$g --no-preview; \
+	done; \
+	$(BIN)/photomodel models add --models $(SERVE_DIR)/models --replace \
+		$$(for g in $$garments; do echo $(SERVE_DIR)/built/$$g.npz; done)
 
 clean:
 	rm -rf $(VENV) build .pytest_cache

@@ -39,8 +39,8 @@ if TYPE_CHECKING:
     from photomodel.model import PhotoModel
     from photomodel.search import SearchSpace
 
-__all__ = ["GROUPS", "SIMULATOR_GROUP", "GroupReport", "Scene", "WarmupReport", "load_kernels",
-           "make_scene", "warmup"]
+__all__ = ["GROUPS", "SIMULATOR_GROUP", "GroupReport", "Scene", "WarmupReport", "all_cached",
+           "load_kernels", "make_scene", "warmup"]
 
 
 @dataclass(frozen=True)
@@ -417,6 +417,12 @@ def _probe(simulator: bool) -> bool:
     except _NotCached:
         return False
     return True
+
+
+def all_cached() -> bool:
+    """Whether every kernel ``locate`` and ``identify`` use loads from the cache: the check
+    run in this process, stopped at the first compilation (no process is started)."""
+    return _probe(False)
 
 
 def load_kernels() -> None:

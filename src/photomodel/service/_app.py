@@ -71,6 +71,20 @@ class _JSON(JSONResponse):
         return json.dumps(_finite(content), allow_nan=False, separators=(",", ":")).encode()
 
 
+async def _drain(receive: Receive, cap_bytes: int) -> None:
+    """Read and drop what is left of a request body (at most ``cap_bytes``) before an early
+    answer: a client still sending when the server closes sees a broken pipe, not the
+    answer."""
+    total = 0
+    while total <= cap_bytes:
+        message = await receive()
+        if message["type"] != "http.request":
+            return
+        total += len(message.get("body", b""))
+        if not message.get("more_body", False):
+            return
+
+
 def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
     return _JSON({"error": message}, status_code=status, headers=headers)
 
@@ -183,6 +197,7 @@ class _Guard:
                     scope.get("method") == "GET":
                 await RedirectResponse("login", status_code=303)(scope, receive, tracked)
             elif not self._authorised(scope):
+                await _drain(receive, self.cell.config.max_upload_bytes)
                 await _error(401, "missing or wrong bearer token (Authorization: Bearer ...)",
                              {"WWW-Authenticate": "Bearer"})(scope, receive, tracked)
             else:
@@ -204,17 +219,26 @@ class _Guard:
 
 
 async def _form(request: Request, limit: int) -> FormData:
-    """The request's multipart form, its body read up to ``limit`` bytes (413 beyond)."""
+    """The request's multipart form, its body read up to ``limit`` bytes (413 beyond; what
+    the client still sends is read and dropped first, up to twice the bound)."""
     size = request.headers.get("content-length")
     if size is not None and size.isdigit() and int(size) > limit:
+        await _drain(request.receive, 2 * limit)
         raise _TooLarge()
     ctype = request.headers.get("content-type", "")
     if not ctype.startswith("multipart/form-data"):
+        await _drain(request.receive, limit)
         raise InputError("request", "expected a multipart/form-data body (files and fields)")
-    chunks, total = [], 0
-    async for chunk in request.stream():
+    chunks, total, more = [], 0, True
+    while more:
+        message = await request.receive()
+        if message["type"] == "http.disconnect":
+            raise ClientDisconnect()
+        chunk, more = message.get("body", b""), message.get("more_body", False)
         total += len(chunk)
         if total > limit:
+            if more:
+                await _drain(request.receive, limit)
             raise _TooLarge()
         chunks.append(chunk)
     body = b"".join(chunks)

@@ -149,11 +149,13 @@ class CellService:
         say = progress or log.info
         t0 = time.perf_counter()
         try:
-            from photomodel._warmup import load_kernels, warmup
+            from photomodel._warmup import all_cached, load_kernels, warmup
 
-            self.detail = "compiling kernels"
-            warmup(say)
             self.detail = "loading kernels"
+            if not all_cached():     # compiled in spawned processes, then loaded here
+                self.detail = "compiling kernels"
+                warmup(say)
+                self.detail = "loading kernels"
             load_kernels()
             self._check_threading(say)
             with warnings.catch_warnings(record=True) as caught:
