@@ -6,9 +6,10 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from photomodel.library import LibraryEntry, ModelLibrary, Skipped
+if TYPE_CHECKING:
+    from photomodel.library import LibraryEntry, Skipped
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -56,6 +57,8 @@ def _entry_json(entry: LibraryEntry) -> dict[str, Any]:
 
 
 def run_list(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
     scan = ModelLibrary(args.models).scan()
     warn_skipped(scan.skipped)
     if args.json:
@@ -83,6 +86,8 @@ def run_add(args: argparse.Namespace) -> int:
         raise InputError("--name", "give one model file with --name")
     if args.name is not None:
         check_model_name(args.name, "--name")
+    from photomodel.library import ModelLibrary
+
     library = ModelLibrary(args.models, create=True)
     for path in args.model:
         entry = library.add(path, args.name, replace=args.replace)
@@ -92,6 +97,8 @@ def run_add(args: argparse.Namespace) -> int:
 
 
 def run_remove(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
     library = ModelLibrary(args.models)
     for name in args.name:
         entry = library.remove(name)
@@ -100,6 +107,8 @@ def run_remove(args: argparse.Namespace) -> int:
 
 
 def run_show(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
     library = ModelLibrary(args.models)
     entry = library.entry(args.name)
     if args.json:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 from photomodel.cli._options import check_float
 from photomodel.errors import InputError
-from photomodel.robot._arm import available_link_sets
+from photomodel.robot._arm_data import available_link_sets
 
 if TYPE_CHECKING:
     from photomodel.robot import CellLayout, PickSettings

@@ -41,7 +41,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -437,6 +436,8 @@ def _geometry_problem(arrays: dict[str, NDArray[Any]], camera: Any, distance: fl
     mask = arrays["mask"].astype(np.uint8)
     h, w = mask.shape
     kernel = np.ones((2 * _TOLERANCE_PX + 1,) * 2, np.uint8)
+    import cv2  # here: the command line imports this module while it builds its parser
+
     grown = cv2.dilate(mask, kernel)
     shrunk = cv2.erode(mask, kernel, borderType=cv2.BORDER_REPLICATE)
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance

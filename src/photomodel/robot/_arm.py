@@ -11,20 +11,18 @@ radians; the file holds degrees (the user-facing edge).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from photomodel.errors import InputError
+from photomodel.robot._arm_data import ARM_FILES, _arm_file, available_link_sets
 
 __all__ = ["ARM_FILES", "ArmModel", "available_link_sets", "load_arm"]
 
-ARM_FILES: dict[str, str] = {"pa10-7c": "pa10_7c.json"}
 """Known arms (name -> data file in ``photomodel/robot/data``)."""
 
 
@@ -122,19 +120,6 @@ class ArmModel:
 
 
 @lru_cache(maxsize=8)
-def _arm_file(arm: str) -> dict[str, Any]:
-    if arm not in ARM_FILES:
-        raise InputError("--arm", f"unknown arm {arm!r}; known: {', '.join(sorted(ARM_FILES))}")
-    text = resources.files("photomodel.robot").joinpath("data", ARM_FILES[arm]).read_text()
-    data: dict[str, Any] = json.loads(text)
-    return data
-
-
-def available_link_sets(arm: str = "pa10-7c") -> tuple[str, ...]:
-    """Names of the link-length sets the arm's data file holds."""
-    return tuple(_arm_file(arm)["link_sets"])
-
-
 def load_arm(arm: str = "pa10-7c", link_set: str | None = None) -> ArmModel:
     """The kinematic model of a known arm.
 
