@@ -17,6 +17,7 @@ from typing import NoReturn
 from photomodel import __version__
 from photomodel.cli import (
     _build,
+    _calibrate,
     _cell,
     _demo,
     _experiment,
@@ -60,6 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     _experiment.add_parser(sub)
     _demo.add_parser(sub)
     _handeye.add_parser(sub)
+    _calibrate.add_parser(sub)
     _pick.add_parser(sub)
     _cell.add_parser(sub)
     _serve.add_parser(sub)

@@ -37,6 +37,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="replace --out if it is a dataset that simulate wrote (never a file "
                         "or another directory)")
+    p.add_argument("--calibration-views", type=int, default=0, metavar="N",
+                   help="also write calibration/: N chessboard views (3 to 200) for each of "
+                        "the stereo rig, the model station and the hand-eye calibration, with "
+                        "their truth (default 0: none)")
     p.add_argument("--contact-sheet", type=Path, default=None, metavar="PNG",
                    help="also write a contact sheet of the dataset")
     p.set_defaults(run=run)
@@ -47,7 +51,7 @@ def _split(text: str) -> list[str]:
 
 
 _OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
-            "conditions": "--conditions"}
+            "conditions": "--conditions", "calibration_views": "--calibration-views"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,6 +70,13 @@ def run(args: argparse.Namespace) -> int:
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
     check_seed(args.seed)
+    if args.calibration_views != 0:
+        from photomodel.sim._calibration import MAX_CALIBRATION_VIEWS, MIN_CALIBRATION_VIEWS
+
+        if not MIN_CALIBRATION_VIEWS <= args.calibration_views <= MAX_CALIBRATION_VIEWS:
+            raise InputError("--calibration-views",
+                             f"expected 0 (none) or an integer from {MIN_CALIBRATION_VIEWS} "
+                             f"to {MAX_CALIBRATION_VIEWS}, got {args.calibration_views}")
     try:
         garments = list(expand_garments(args.garments))
     except ValueError as exc:
@@ -100,12 +111,16 @@ def run(args: argparse.Namespace) -> int:
         with count_progress("simulating", sys.stderr.isatty()) as progress:
             summary = write_dataset(args.out, garments, conditions, args.scenes, args.seed,
                                     extra_garments=extra, overwrite=args.force,
-                                    progress=progress)
+                                    progress=progress,
+                                    calibration_views=args.calibration_views)
     except ValueError as exc:   # an InputError (names its file) passes unchanged
         raise as_option_error(exc, _OPTIONS, "--conditions" if "lens" in str(exc)
                               else str(args.out)) from None
     print(f"wrote {args.out}/: {len(summary.models)} model(s), {len(summary.scenes)} scene(s), "
           f"truth.json, stereo.yaml, model_camera.yaml")
+    if args.calibration_views:
+        print(f"calibration: {args.out}/calibration/ ({args.calibration_views} views per set; "
+              "see its README.txt)")
     if args.contact_sheet is not None:
         write_image(args.contact_sheet, contact_sheet(args.out))
         print(f"contact sheet: {args.contact_sheet}")

@@ -15,7 +15,9 @@ Pairs file of ``photomodel handeye`` (JSON; one object)::
      "chessboard": {"inner_corners": [columns, rows], "square_mm": 25.0}}   (images only)
 
 Images need the stereo calibration (camera 1's intrinsics) and the chessboard's geometry;
-their target pose comes from ``cv2.findChessboardCorners`` + ``cv2.solvePnP``. The target's
+their target pose comes from :func:`photomodel.calibrate.chessboard_pose` (the corner detector
+of ``photomodel calibrate``, then ``cv2.solvePnP``); ``Chessboard`` and ``chessboard_pose``
+live in :mod:`photomodel.calibrate` and are re-exported here. The target's
 frame is the chessboard's: origin at the first inner corner, x along its rows, z into the board.
 """
 
@@ -33,6 +35,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from photomodel.calibrate._detect import chessboard_pose
+from photomodel.calibrate._pattern import Chessboard
 from photomodel.camera import PinholeCamera
 from photomodel.camera._io import _matrix, _open, _write_atomic
 from photomodel.errors import InputError
@@ -113,52 +117,6 @@ def save_hand_eye(path: str | os.PathLike[str], T_hand_cam1: ArrayLike,
             fs.write(key, value if isinstance(value, str) else float(value))
 
     _write_atomic(p, write)
-
-
-@dataclass(frozen=True)
-class Chessboard:
-    """A chessboard calibration target.
-
-    Parameters
-    ----------
-    inner_corners : (int, int)
-        Inner corners per row and per column (OpenCV's ``patternSize``).
-    square_mm : float
-        Side of a square, mm.
-    """
-
-    inner_corners: tuple[int, int]
-    square_mm: float
-
-    def __post_init__(self) -> None:
-        if min(self.inner_corners) < 2 or self.square_mm <= 0:
-            raise ValueError("chessboard: expected at least 2 x 2 inner corners and a positive "
-                             "square size")
-
-    def object_points(self) -> NDArray[np.float64]:
-        """Inner corners (N, 3) in the target frame, mm, in OpenCV's detection order."""
-        cols, rows = self.inner_corners
-        gx, gy = np.meshgrid(np.arange(cols), np.arange(rows))
-        return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)]) * self.square_mm
-
-
-def chessboard_pose(image_bgr: NDArray[np.uint8], camera: PinholeCamera, board: Chessboard,
-                    source: str = "image") -> NDArray[np.float64]:
-    """``T_cam_target`` (4, 4), mm, of a chessboard seen in one image.
-
-    Raises :class:`InputError` naming ``source`` when the board is not found.
-    """
-    gray = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
-    found, corners = cv2.findChessboardCorners(gray, board.inner_corners)
-    if not found:
-        raise InputError(source, f"no {board.inner_corners[0]}x{board.inner_corners[1]} "
-                         "chessboard found")
-    corners = cv2.cornerSubPix(gray, corners, (5, 5), (-1, -1),
-                               (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 1e-3))
-    ok, rvec, tvec = cv2.solvePnP(board.object_points(), corners, camera.K, camera.dist)
-    if not ok:
-        raise InputError(source, "solvePnP failed on the chessboard corners")
-    return make_transform(cv2.Rodrigues(rvec)[0], tvec.ravel())
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,12 @@ import lazy_loader
 __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
+        "_calibration": [
+            "CALIBRATION_BOARD",
+            "BoardSpec",
+            "chessboard_texture",
+            "write_calibration",
+        ],
         "_catalogue": [
             "CATALOGUE",
             "GARMENT_GROUPS",
@@ -95,6 +101,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
 
 __all__ = [
     "BASELINE_MM",
+    "CALIBRATION_BOARD",
     "CATALOGUE",
     "CONDITIONS",
     "FABRICS",
@@ -113,6 +120,7 @@ __all__ = [
     "TABLE_GREY_BGR",
     "THETA_RANGE_DEG",
     "WORK_DISTANCE_MM",
+    "BoardSpec",
     "Conditions",
     "DatasetSummary",
     "Fold",
@@ -129,6 +137,7 @@ __all__ = [
     "blur",
     "camo_fabric",
     "catalogue_garment",
+    "chessboard_texture",
     "contact_sheet",
     "dot_fabric",
     "expand_garments",
@@ -169,5 +178,6 @@ __all__ = [
     "table_plane",
     "uniform_plane",
     "white_balance_gains",
+    "write_calibration",
     "write_dataset",
 ]

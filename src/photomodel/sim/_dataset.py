@@ -10,6 +10,8 @@
     DIR/scenes/<id>/left.png           camera 2
     DIR/truth.json                     {"<id>": {"model": ..., "T_cam1_model": ..., ...}}
     DIR/dataset.json                   how it was made: seed, garments, conditions, versions
+    DIR/calibration/                   chessboard views with their truth (only with
+                                       ``calibration_views``; photomodel.sim._calibration)
 
 Every image has its own seed, derived from the dataset's seed and the names (condition,
 garment, index) of what it shows, so the same seed gives byte-identical files, and adding a
@@ -135,6 +137,7 @@ def write_dataset(
     extra_garments: Mapping[str, Garment] | None = None,
     overwrite: bool = False,
     progress: Callable[[int, int, str], None] | None = None,
+    calibration_views: int = 0,
 ) -> DatasetSummary:
     """Simulate a dataset: model photos of each garment and stereo scenes with their truth.
 
@@ -159,6 +162,9 @@ def write_dataset(
         otherwise an error, and a file or a directory of anything else always is.
     progress : callable(done, total, label), optional
         Called after every image written.
+    calibration_views : int
+        0 (default) for none, else also write ``calibration/``: chessboard views with their
+        truth, this many per set (:func:`~photomodel.sim._calibration.write_calibration`).
 
     Returns
     -------
@@ -173,7 +179,19 @@ def write_dataset(
         An unknown garment or condition, conditions asking for different lenses, ``scenes``
         or ``seed`` out of range; the message starts with the argument (``scenes: ...``).
     """
+    from photomodel.sim._calibration import (
+        MAX_CALIBRATION_VIEWS,
+        MIN_CALIBRATION_VIEWS,
+        calibration_image_count,
+        write_calibration,
+    )
+
     out = Path(out)
+    if calibration_views != 0 and not (MIN_CALIBRATION_VIEWS <= calibration_views
+                                       <= MAX_CALIBRATION_VIEWS):
+        raise ValueError(f"calibration_views: expected 0 (none) or an integer from "
+                         f"{MIN_CALIBRATION_VIEWS} to {MAX_CALIBRATION_VIEWS}, got "
+                         f"{calibration_views}")
     if not 1 <= scenes <= MAX_SCENES:
         raise ValueError(f"scenes: expected an integer from 1 to {MAX_SCENES}, got {scenes}")
     if not 0 <= seed <= MAX_SEED:
@@ -206,7 +224,8 @@ def write_dataset(
                                   "those: choose another --out")
         if not overwrite:
             raise InputError(out, "already exists and is not empty (use --force to replace it)")
-    total = len(chosen) + _count_jobs(parsed, len(chosen), scenes)
+    total = (len(chosen) + _count_jobs(parsed, len(chosen), scenes)
+             + calibration_image_count(calibration_views))
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     created = next((p for p in reversed(out.parents) if not p.exists()), None)
     complete = False
@@ -252,7 +271,20 @@ def write_dataset(
                 if progress is not None:
                     progress(done, total, f"scene {scene_id}")
             truth.write("\n}\n" if scene_ids else "}\n")
-        (tmp / "dataset.json").write_text(dumps_json(_manifest(seed, chosen, parsed, scenes)))
+        if calibration_views:
+            def calibration_progress(label: str) -> None:
+                nonlocal done
+                done += 1
+                if progress is not None:
+                    progress(done, total, label)
+
+            write_calibration(tmp, rig, camera, calibration_views, seed,
+                              progress=calibration_progress)
+        manifest = _manifest(seed, chosen, parsed, scenes)
+        if calibration_views:
+            manifest["calibration"] = {"views": int(calibration_views),
+                                       "readme": "calibration/README.txt"}
+        (tmp / "dataset.json").write_text(dumps_json(manifest))
         if out.exists():
             if any(out.iterdir()) and not is_dataset(out):   # changed while we worked
                 raise InputError(out, "is no longer a dataset; left as it is")
