@@ -15,13 +15,14 @@ from photomodel.sim import (
     known_garments,
     parse_conditions,
 )
+from photomodel.sim._catalogue import PLANE_COLOURED
 
 
 def test_the_paper_catalogue_is_unchanged() -> None:
     assert garment_names() == tuple(f"No.{i}" for i in range(1, 13))
     assert expand_garments("all") == garment_names()
     assert not set(SIMILAR) & set(CATALOGUE)
-    assert set(known_garments()) == set(CATALOGUE) | set(SIMILAR)
+    assert set(known_garments()) == set(CATALOGUE) | set(SIMILAR) | set(PLANE_COLOURED)
 
 
 def test_groups_and_names() -> None:

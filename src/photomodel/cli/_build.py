@@ -46,6 +46,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--hue-threshold-deg", type=float, default=d.hue_threshold_deg,
                    help="hue error from the plane above which a pixel is garment, deg "
                         f"({span('hue_threshold_deg')})")
+    p.add_argument("--hue-only", action="store_true",
+                   help="the paper's rule alone: no per-pixel comparison with the background "
+                        "photo (a region of the plane's colour is then lost; a plane without "
+                        "hue is refused)")
     p.add_argument("--no-preview", action="store_true", help="do not write the preview PNG")
     p.set_defaults(run=run)
 
@@ -66,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         config = BuildConfig(step_mm=args.step_mm, band_gap_mm=args.band_gap_mm,
                              band_width_mm=args.band_width_mm,
-                             hue_threshold_deg=args.hue_threshold_deg)
+                             hue_threshold_deg=args.hue_threshold_deg,
+                             background_compare=not args.hue_only)
     except ValueError as exc:
         raise as_option_error(exc, _OPTIONS, "build") from None
     if args.name is not None:
@@ -91,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
     if preview is not None:
         write_image(path.with_suffix(".preview.png"), preview)
     m = built.model
+    quality = "" if built.quality is None else f", {built.quality.summary()}"
     print(f"{path}: model '{m.name}', {m.size_mm[0]:.0f} x {m.size_mm[1]:.0f} mm, "
-          f"area {m.area_mm2:.0f} mm^2, S_in {m.n_in} points, S_out {m.n_out} points")
+          f"area {m.area_mm2:.0f} mm^2, S_in {m.n_in} points, S_out {m.n_out} points{quality}")
     return 0

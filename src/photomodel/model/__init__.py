@@ -5,7 +5,7 @@ import lazy_loader
 __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_build": ["BuildResult", "build_model", "build_photo_model"],
+        "_build": ["BuildQuality", "BuildResult", "build_model", "build_photo_model"],
         "_config": ["BuildConfig"],
         "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
         "_preview": ["render_preview"],
@@ -15,6 +15,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
 __all__ = [
     "FORMAT_VERSION",
     "BuildConfig",
+    "BuildQuality",
     "BuildResult",
     "PhotoModel",
     "build_model",

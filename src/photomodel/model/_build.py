@@ -11,12 +11,23 @@ Steps, as in the paper, with the choices it leaves open written down:
    ``achromatic_fraction`` of the plane's median saturation or its value is below
    ``dark_fraction`` of the plane's median value (the plane is a saturated, lit green, so
    neither can be the plane).
+   The *per-pixel rule* (``background_compare``, :func:`_differs_from_plane`) also compares
+   each pixel with the same pixel of the background photo in the log-opponent space of
+   ``image/_features.py`` (lightness, red-green, yellow-blue of log(channel + 8)): the pixel is
+   garment when its chromaticity differs by more than ``chroma_threshold``, when it is lighter
+   by more than ``lighter_fraction``, or darker than ``shadow_fraction`` of the plane there.
+   A shadow on the plane (darker, same chromaticity, above ``shadow_fraction``) stays plane.
+   A global exposure or white-balance change between the two photos is removed first (the
+   median difference over the photo's border, where the garment may not lie). A pixel is
+   garment when either rule says so (the per-pixel rule adding only regions at least
+   ``ADDED_MIN_PX`` wide); on a plane without hue (grey, white, black) it works alone.
 4. The mask is cleaned (opening 3x3, closing 5x5), reduced to its largest connected component
    and its holes are filled.
    Its outline is then moved to where the photo is half garment, half plane (``mixing_edge``;
    :func:`_mixing_edge`): the thresholds put a grey or dark garment's edge where the mix of
    garment and green is past half garment, so the model would come out a fraction of a pixel
-   too small on every side (and be located too near).
+   too small on every side (and be located too near). With the per-pixel rule the plane's
+   colour there is first scaled to the photo's lightness just outside the mask (a shadow).
 5. Pixels become millimetres on the plane through the model camera's intrinsics *and
    distortion* (exact inverse) and the camera-to-plane distance; the model frame's origin is the
    silhouette's area centroid on the plane (each pixel weighted by its area on the plane).
@@ -26,6 +37,11 @@ Steps, as in the paper, with the choices it leaves open written down:
 7. S_out: rings every ``step_mm`` along the outline offset outwards by ``band_gap_mm``,
    ``band_gap_mm + step_mm``, ... up to ``band_gap_mm + band_width_mm``: the band that
    envelops the outline.
+
+The build reports how much of the silhouette has a colour close to the plane's
+(:class:`BuildQuality`) and warns (:class:`~photomodel.errors.InputWarning`) when that share
+exceeds ``plane_share_warning``: such a model stands on the per-pixel rule alone, and a
+change of light or camera between the two photos would move it.
 
 Defaults (reasoning in docs/method/build.md). The hand cameras see the table at about
 1.2 px/mm, so ``step_mm = 3`` puts neighbouring samples about 3.5 px apart (2000-4000 S_in
@@ -38,6 +54,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import os
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -46,29 +63,86 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera
-from photomodel.errors import InputError, NoGarmentError
+from photomodel.errors import InputError, InputWarning, NoGarmentError
 from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg, sample_bilinear
 from photomodel.model._config import BuildConfig
 from photomodel.model._photomodel import PhotoModel
 
-__all__ = ["BuildConfig", "BuildResult", "build_model", "build_photo_model"]
+__all__ = ["BuildConfig", "BuildQuality", "BuildResult", "build_model", "build_photo_model"]
 
 MAX_DISTANCE_MM = 100_000.0
 """Farthest camera-to-plane distance taken (a model station is about 400 mm)."""
 MIN_POINTS = 8
 """Fewest S_in and S_out points a model needs (``step_mm`` too large for a garment leaves
 fewer)."""
+LOG_OFFSET = 8.0
+"""Grey levels added before the logarithm (as in ``image/_features.py``'s log-opponent space)."""
+CLOSE_CHROMA = 0.5
+"""Log-chromaticity distance from the plane's median colour under which a pixel's colour is
+*close to the plane's* (the dark-green hem and the leaf-green ground of the catalogue lie at
+0.3-0.35; the paper's garments at 0.8 and beyond)."""
+CLOSE_LIGHTNESS = float(np.log(2.0))
+"""Log-lightness distance (a factor 2) under which a pixel's colour is close to the plane's."""
+ADDED_MIN_PX = 5
+"""Narrowest region (px) the per-pixel rule adds to the hue rule's garment pixels."""
+SHADING_MIN = 0.03
+"""Smallest lightness change of the plane beside the garment (photo over background photo)
+that the mixing edge takes for a shadow; the two photos' noise gives under 1 %."""
+BORDER_PX = 16
+NOISE_SIGMAS = 6.0
+"""The per-pixel rule's thresholds are at least this many noise std of the two photos'
+difference: on the simulated green plane 0.04 in lightness and 0.08 in chromaticity (under
+the defaults), on the black plane 0.09 and 0.17 (above them)."""
+"""Width of the photo's border band from which the exposure and colour change between the two
+photos is estimated."""
+
+
+@dataclass(frozen=True)
+class BuildQuality:
+    """How far the silhouette can be trusted.
+
+    Parameters
+    ----------
+    plane_colour_share : float
+        Share (0-1) of the silhouette's pixels (2 px clear of its outline, where no pixel
+        blends garment and plane) whose colour is close to the plane's median colour
+        (log-chromaticity distance under :data:`CLOSE_CHROMA`, lightness within a factor 2):
+        the part of the garment that only the per-pixel comparison with the background photo
+        separates from the plane.
+    hue_rule_shift_mm : float or None
+        How far the paper's average-hue rule alone would have put the model's origin from this
+        model's, mm (None on a plane without hue, when that rule finds no garment, or when it
+        built the model alone: ``background_compare`` off).
+    hue_rule_area_ratio : float or None
+        Area of the hue rule's silhouette over this model's (None likewise).
+    warning : str or None
+        The warning issued (``plane_colour_share`` over ``plane_share_warning``), or None.
+    """
+
+    plane_colour_share: float
+    hue_rule_shift_mm: float | None
+    hue_rule_area_ratio: float | None
+    warning: str | None = None
+
+    def summary(self) -> str:
+        """One line: ``plane colour 12.3 % of the silhouette (hue rule alone: 4.1 mm off)``."""
+        text = f"plane colour {100 * self.plane_colour_share:.1f} % of the silhouette"
+        if self.hue_rule_shift_mm is not None:
+            text += f" (hue rule alone: {self.hue_rule_shift_mm:.1f} mm off)"
+        return text
 
 
 @dataclass(frozen=True)
 class BuildResult:
-    """A built model and what a preview needs: the full-size mask and sample pixels."""
+    """A built model, its quality report, and what a preview needs: the full-size mask and
+    sample pixels."""
 
     model: PhotoModel
     mask: NDArray[np.bool_]
     uv_in: NDArray[np.float64]
     uv_out: NDArray[np.float64]
     uv_outline: NDArray[np.float64]
+    quality: BuildQuality | None = None
 
 
 def build_photo_model(
@@ -106,9 +180,15 @@ def build_photo_model(
     Raises
     ------
     InputError
-        Sizes differ, the plane has no hue, or the garment touches the photo border.
+        Sizes differ, the plane has no hue (only without ``background_compare``), or the
+        garment touches the photo border.
     NoGarmentError
         Nothing in the photo differs from the plane.
+
+    Warns
+    -----
+    InputWarning
+        More than ``plane_share_warning`` of the silhouette has the plane's colour.
     """
     cfg = config or BuildConfig()
     if photo_bgr.shape != background_bgr.shape:
@@ -127,26 +207,52 @@ def build_photo_model(
 
     bg_sat = float(np.median(hsv_bg[..., 1]))
     bg_val = float(np.median(hsv_bg[..., 2]))
-    if bg_sat < 0.15:
+    chromatic_plane = bg_sat >= 0.15
+    if not chromatic_plane and not cfg.background_compare:
         raise InputError(background_source, f"the plane has no clear hue (median saturation "
-                         f"{bg_sat:.2f}); the model plane must be a coloured (green) surface")
-    bg_hue = circular_mean_hue_deg(hsv_bg[..., 0], weights=hsv_bg[..., 1])
+                         f"{bg_sat:.2f}); the hue rule alone needs a coloured (green) plane: "
+                         f"compare with the background photo (drop --hue-only)")
+    bg_hue = (circular_mean_hue_deg(hsv_bg[..., 0], weights=hsv_bg[..., 1])
+              if chromatic_plane else None)
 
-    garment = (
-        (hue_distance_deg(hsv[..., 0], bg_hue) > cfg.hue_threshold_deg)
-        | (hsv[..., 1] < cfg.achromatic_fraction * bg_sat)
-        | (hsv[..., 2] < cfg.dark_fraction * bg_val)
-    ).astype(np.uint8)
-    mask = _clean_mask(garment)
-    if cfg.mixing_edge and mask.any():
-        mask = _mixing_edge(mask, smooth_photo, smooth_background)
+    by_hue = np.zeros((h, w), np.uint8)
+    if bg_hue is not None:
+        by_hue = (
+            (hue_distance_deg(hsv[..., 0], bg_hue) > cfg.hue_threshold_deg)
+            | (hsv[..., 1] < cfg.achromatic_fraction * bg_sat)
+            | (hsv[..., 2] < cfg.dark_fraction * bg_val)
+        ).astype(np.uint8)
+
+    def outline(garment: NDArray[np.uint8], shading: bool = False) -> NDArray[np.uint8]:
+        m = _clean_mask(garment)
+        if cfg.mixing_edge and m.any():
+            m = _mixing_edge(m, smooth_photo, smooth_background,
+                             min_contrast=cfg.mixing_min_contrast, shading=shading)
+        return m
+
+    feat_photo = feat_bg = None
+    if not cfg.background_compare:   # the paper's rule alone (the plane has a hue: see above)
+        mask = hue_mask = outline(by_hue)
+    else:
+        feat_photo, feat_bg = _log_opponent(smooth_photo), _log_opponent(smooth_background)
+        # Only regions the hue rule misses, at least ADDED_MIN_PX wide: the thin halo the
+        # per-pixel rule sees around every garment (its blurred edge, a tenth garment and
+        # more) would otherwise move the outline outwards and bias the mixing edge.
+        added = _differs_from_plane(feat_photo, feat_bg, cfg) & (1 - by_hue)
+        added = cv2.morphologyEx(added, cv2.MORPH_OPEN, cv2.getStructuringElement(
+            cv2.MORPH_ELLIPSE, (ADDED_MIN_PX, ADDED_MIN_PX)))
+        mask = outline(by_hue | added, shading=True)
+        # What the hue rule alone gives, for the quality report: the same regions when the
+        # per-pixel rule adds none.
+        hue_mask = None if bg_hue is None else outline(by_hue) if added.any() else mask
 
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
     area_mm2 = mask.sum() / px_per_mm**2
     if area_mm2 < cfg.min_area_mm2:
+        plane = (f"the plane's hue ({bg_hue:.0f} deg)" if bg_hue is not None
+                 else "the plane (it has no hue)")
         raise NoGarmentError(photo_source, f"no garment found: nothing larger than "
-                             f"{cfg.min_area_mm2:.0f} mm^2 differs from the plane's hue "
-                             f"({bg_hue:.0f} deg)")
+                             f"{cfg.min_area_mm2:.0f} mm^2 differs from {plane}")
     border = np.concatenate([mask[0], mask[-1], mask[:, 0], mask[:, -1]])
     if border.sum() > 2:
         raise InputError(photo_source, "the garment touches the photo's border, so its outline "
@@ -158,6 +264,19 @@ def build_photo_model(
     xy_mask = camera.undistort_pixels(uv_mask) * distance_mm
     pixel_area = _pixel_area_mm2(camera, uv_mask, distance_mm)
     centroid = (xy_mask * pixel_area[:, None]).sum(axis=0) / pixel_area.sum()
+    quality = _quality(mask, hue_mask, feat_photo, feat_bg, smooth_photo, smooth_background,
+                       camera, distance_mm, centroid, pixel_area.sum())
+    if quality.plane_colour_share > cfg.plane_share_warning:
+        moved = ("" if quality.hue_rule_shift_mm is None else
+                 f", the hue rule alone would move it {quality.hue_rule_shift_mm:.1f} mm")
+        problem = (f"{100 * quality.plane_colour_share:.0f} % of the garment has the plane's "
+                   f"colour: only the comparison with the background photo finds it{moved}; "
+                   f"keep light and camera fixed between the two photos, or use a plane of "
+                   f"another colour")
+        quality = BuildQuality(quality.plane_colour_share, quality.hue_rule_shift_mm,
+                               quality.hue_rule_area_ratio, f"{Path(photo_source).name}: "
+                                                            f"{problem}")
+        warnings.warn(InputWarning(photo_source, problem), stacklevel=2)
 
     def to_model(uv: NDArray[np.float64]) -> NDArray[np.float64]:
         xy = camera.undistort_pixels(uv) * distance_mm - centroid
@@ -213,6 +332,7 @@ def build_photo_model(
         "background_hue_deg": bg_hue,
         "centroid_in_camera_mm": [float(centroid[0]), float(centroid[1]), float(distance_mm)],
         "area_mm2": float(area_mm2),
+        "plane_colour_share": quality.plane_colour_share,
         "build_config": asdict(cfg),
     }
     model = PhotoModel(
@@ -226,7 +346,70 @@ def build_photo_model(
         crop_origin_px=np.array([x0, y0], dtype=np.int64),
         meta=meta,
     )
-    return BuildResult(model, mask.astype(bool), uv_in, uv_out, outline_uv)
+    return BuildResult(model, mask.astype(bool), uv_in, uv_out, outline_uv, quality)
+
+
+def _log_opponent(image: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """Log-opponent colour (H, W, 3) = (lightness, red-green, yellow-blue) in float, as
+    ``image/_features.py`` defines it (without its rounding)."""
+    logs = np.log(image.astype(np.float32) + np.float32(LOG_OFFSET))  # ln B, ln G, ln R
+    lb, lg, lr = logs[..., 0], logs[..., 1], logs[..., 2]
+    return np.stack([(lb + lg + lr) / 3, lr - lg, 0.5 * (lr + lg) - lb], axis=-1)
+
+
+def _differs_from_plane(feat_photo: NDArray[np.float32], feat_bg: NDArray[np.float32],
+                        cfg: BuildConfig) -> NDArray[np.uint8]:
+    """The per-pixel rule: 1 where the photo's colour differs from the background photo's
+    at the same pixel (chromaticity, or lightness beyond a shadow), else 0.
+
+    The median difference over the photo's border band (:data:`BORDER_PX`), where the garment
+    may not lie, is taken off first: a change of exposure or white balance between the two
+    photos is not garment. The thresholds rise to :data:`NOISE_SIGMAS` times the noise of
+    that difference in the band (robust estimates), where the photos are that noisy (a dark
+    plane's logarithms are).
+    """
+    diff = feat_photo - feat_bg
+    border = np.ones(diff.shape[:2], bool)
+    border[BORDER_PX:-BORDER_PX, BORDER_PX:-BORDER_PX] = False
+    diff = diff - np.median(diff[border], axis=0)
+    chroma = np.hypot(diff[..., 1], diff[..., 2])
+    light = diff[..., 0]
+    # Noise std: lightness from its median absolute deviation, chromaticity from the median
+    # of its (Rayleigh-distributed) magnitude.
+    sigma_light = 1.4826 * float(np.median(np.abs(light[border])))
+    sigma_chroma = float(np.median(chroma[border])) / 1.1774
+    chroma_min = max(cfg.chroma_threshold, NOISE_SIGMAS * sigma_chroma)
+    lighter = max(float(np.log1p(cfg.lighter_fraction)), NOISE_SIGMAS * sigma_light)
+    darker = min(float(np.log(max(cfg.shadow_fraction, 1e-6))), -NOISE_SIGMAS * sigma_light)
+    return ((chroma > chroma_min) | (light > lighter) | (light < darker)).astype(np.uint8)
+
+
+def _quality(mask: NDArray[np.uint8], hue_mask: NDArray[np.uint8] | None,
+             feat_photo: NDArray[np.float32] | None, feat_bg: NDArray[np.float32] | None,
+             photo: NDArray[np.uint8], background: NDArray[np.uint8], camera: PinholeCamera,
+             distance_mm: float, centroid: NDArray[np.float64], area: float) -> BuildQuality:
+    """The build's :class:`BuildQuality` (see there); ``feat_photo`` None: the hue rule
+    built the model alone (nothing to compare it with)."""
+    photo_feat = _log_opponent(photo) if feat_photo is None else feat_photo
+    bg_feat = _log_opponent(background) if feat_bg is None else feat_bg
+    plane = np.median(bg_feat.reshape(-1, 3), axis=0)
+    interior = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
+    inside = photo_feat[interior > 0] - plane
+    close = ((np.hypot(inside[:, 1], inside[:, 2]) < CLOSE_CHROMA)
+             & (np.abs(inside[:, 0]) < CLOSE_LIGHTNESS))
+    share = float(close.mean()) if len(close) else 0.0
+    if hue_mask is None or feat_photo is None:   # no hue rule, or nothing but the hue rule
+        return BuildQuality(share, None, None)
+    if hue_mask is mask:   # the per-pixel rule added nothing
+        return BuildQuality(share, 0.0, 1.0)
+    if not hue_mask.any():
+        return BuildQuality(share, None, 0.0)
+    vv, uu = np.nonzero(hue_mask)
+    uv = np.stack([uu, vv], axis=-1).astype(np.float64)
+    xy = camera.undistort_pixels(uv) * distance_mm
+    a = _pixel_area_mm2(camera, uv, distance_mm)
+    shift = float(np.linalg.norm((xy * a[:, None]).sum(axis=0) / a.sum() - centroid))
+    return BuildQuality(share, shift, float(a.sum() / area))
 
 
 def _smooth(image: NDArray[np.uint8], sigma_px: float) -> NDArray[np.uint8]:
@@ -235,7 +418,7 @@ def _smooth(image: NDArray[np.uint8], sigma_px: float) -> NDArray[np.uint8]:
 
 def _mixing_edge(mask: NDArray[np.uint8], photo: NDArray[np.uint8],
                  background: NDArray[np.uint8], reach_px: float = 3.0,
-                 min_contrast: float = 30.0) -> NDArray[np.uint8]:
+                 min_contrast: float = 30.0, shading: bool = False) -> NDArray[np.uint8]:
     """``mask`` with its outline moved to where the photo is half garment, half plane.
 
     Near the outline (within ``reach_px``) each pixel's garment fraction is the projection
@@ -246,12 +429,26 @@ def _mixing_edge(mask: NDArray[np.uint8], photo: NDArray[np.uint8],
     thresholds' answer. The hue and saturation thresholds put a grey sock's edge where the
     mix is about 60 % sock (a grey-green mix keeps the plane's hue and saturation longer),
     which makes the model too small and places it too near.
+
+    With ``shading`` the background photo's colour is scaled by the lightness ratio of the
+    photo to the background photo 3.5-7 px outside the mask (clear of the garment's blur)
+    where that ratio differs from 1
+    by :data:`SHADING_MIN` or more (a shadow the garment casts on the plane darkens the plane
+    next to its edge; unscaled, a dark garment's edge would move out into its shadow). Below
+    that, sensor noise, the background photo's colour is taken as it is.
     """
     dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     core = ((dist_in >= 2.5) & (dist_in <= 6.0)).astype(np.float32)
     img = photo.astype(np.float32)
     plane = background.astype(np.float32)
+    if shading:
+        outer = ((dist_out >= 3.5) & (dist_out <= 7.0)).astype(np.float32)
+        ratio = (img.sum(axis=-1) + 3 * LOG_OFFSET) / (plane.sum(axis=-1) + 3 * LOG_OFFSET)
+        outer_weight = cv2.GaussianBlur(outer, (0, 0), 3.0)
+        gain = cv2.GaussianBlur(ratio * outer, (0, 0), 3.0) / np.maximum(outer_weight, 1e-6)
+        shaded = (outer_weight > 1e-3) & (np.abs(gain - 1.0) >= SHADING_MIN)
+        plane = plane * np.where(shaded, gain, 1.0)[..., None]
     weight = cv2.GaussianBlur(core, (0, 0), 3.0)
     garment = cv2.GaussianBlur(img * core[..., None], (0, 0), 3.0) / np.maximum(
         weight, 1e-6)[..., None]

@@ -23,6 +23,12 @@ class BuildConfig:
     min_area_mm2: float = 400.0
     crop_margin_px: int = 8
     mixing_edge: bool = True
+    background_compare: bool = True
+    chroma_threshold: float = 0.10
+    lighter_fraction: float = 0.05
+    shadow_fraction: float = 0.6
+    mixing_min_contrast: float = 30.0
+    plane_share_warning: float = 0.01
 
     def __post_init__(self) -> None:
         for key, value in asdict(self).items():
@@ -47,8 +53,14 @@ RANGES: dict[str, tuple[float, float]] = {
     "min_area_mm2": (0.0, 1e6),
     "crop_margin_px": (0.0, 1000.0),
     "mixing_edge": (0.0, 1.0),
+    "background_compare": (0.0, 1.0),
+    "chroma_threshold": (0.0, 5.0),
+    "lighter_fraction": (0.0, 10.0),
+    "shadow_fraction": (0.0, 1.0),
+    "mixing_min_contrast": (0.0, 442.0),
+    "plane_share_warning": (0.0, 1.0),
 }
 """Allowed range of each setting (units in the names; ``step_mm`` from 0.5 mm, about half a
 pixel of the model camera, to 20 mm, beyond which a mid-size garment keeps too few points)."""
-_POSITIVE = {"hue_threshold_deg"}
+_POSITIVE = {"hue_threshold_deg", "chroma_threshold", "lighter_fraction"}
 _UNITS = (("_mm2", " mm^2"), ("_mm", " mm"), ("_deg", " deg"), ("_px", " px"))

@@ -11,6 +11,8 @@ from photomodel.model._build import BuildResult
 _IN_BGR = (255, 255, 0)  # cyan
 _OUT_BGR = (255, 0, 255)  # magenta
 _OUTLINE_BGR = (0, 255, 255)  # yellow
+_TEXT_BGR = (255, 255, 255)
+_WARN_BGR = (80, 80, 255)  # light red
 
 
 def render_preview(photo_bgr: NDArray[np.uint8], built: BuildResult, scale: int = 2
@@ -18,7 +20,8 @@ def render_preview(photo_bgr: NDArray[np.uint8], built: BuildResult, scale: int 
     """Draw the build result over the photo (upscaled ``scale`` times) with a legend.
 
     Returns a BGR image; the mask is darkened outside, S_in points are cyan, S_out points
-    magenta and the outline yellow.
+    magenta and the outline yellow; the legend ends with the build's quality line (the share
+    of plane colour, in red when it drew a warning).
     """
     img = cv2.resize(photo_bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
     mask = cv2.resize(built.mask.astype(np.uint8), None, fx=scale, fy=scale,
@@ -39,9 +42,13 @@ def render_preview(photo_bgr: NDArray[np.uint8], built: BuildResult, scale: int 
         f"{m.name}: S_in {m.n_in} pts (cyan), S_out {m.n_out} pts (magenta), outline (yellow)",
         f"size {m.size_mm[0]:.0f} x {m.size_mm[1]:.0f} mm, area {m.area_mm2:.0f} mm^2",
     ]
-    for i, text in enumerate(lines):
+    colours = [_TEXT_BGR, _TEXT_BGR]
+    q = built.quality
+    if q is not None:
+        lines.append(q.summary() + (": WARNING, see the build's message" if q.warning else ""))
+        colours.append(_WARN_BGR if q.warning else _TEXT_BGR)
+    for i, (text, colour) in enumerate(zip(lines, colours, strict=True)):
         org = (8, 20 + 20 * i)
         cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1,
-                    cv2.LINE_AA)
+        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
     return img

@@ -5,7 +5,10 @@ No. 3 (small, light and colourful) is the one of its Table 1. The catalogue stan
 each entry is a :class:`GarmentSpec` that :func:`catalogue_garment` turns into the same
 :class:`~photomodel.sim.Garment` (same bytes) every time. It covers every silhouette of
 ``GARMENT_SHAPES``, every fabric, and on purpose the cases that hue alone handles badly: a dark
-(navy), a white and a grey plain garment.
+(navy), a white and a grey plain garment. :data:`PLANE_COLOURED` adds garments that share the
+model station plane's colour (a print on a green ground, a dark-green hem; grey, white and black
+garments photographed on a plane of their own colour): the cases the paper's average-hue rule
+loses and the per-pixel comparison with the background photo must recover.
 
 A user's own garment comes from a photo and a mask (:func:`garment_from_image`,
 :func:`load_garment`).
@@ -15,7 +18,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -26,12 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 from photomodel.errors import InputError
 from photomodel.image import read_color_image, read_grey_image
 from photomodel.sim._garments import _MARGIN_PX, Garment, _area_centroid_px, make_garment
-from photomodel.sim._textures import PlaneTexture
+from photomodel.sim._textures import PlaneTexture, plain_fabric
 
 __all__ = [
     "CATALOGUE",
     "GARMENT_GROUPS",
     "SIMILAR",
+    "PLANE_COLOURED",
     "GarmentSpec",
     "catalogue_garment",
     "expand_garments",
@@ -64,6 +68,11 @@ class GarmentSpec:
         Picture of a ``photo`` fabric (one of ``PHOTO_PRINTS``).
     description : str
         Words for people.
+    plane_bgr : (3,), optional
+        Colour of the model station's plane the garment is photographed on (BGR 0-255);
+        None: the station's green.
+    hem : (float, (3,)), optional
+        A band of another colour along the bottom edge: (height mm, BGR colour).
     """
 
     name: str
@@ -74,6 +83,8 @@ class GarmentSpec:
     colour_bgr: tuple[int, int, int] | None = None
     photo: str | None = None
     description: str = ""
+    plane_bgr: tuple[int, int, int] | None = None
+    hem: tuple[float, tuple[int, int, int]] | None = None
 
 
 _NAVY_BGR = (72, 36, 26)  # value 72: dark, hue unreliable
@@ -130,14 +141,48 @@ SIMILAR: dict[str, GarmentSpec] = {
 """Look-alikes of catalogue garments for identification: each differs from its
 original in one respect only (size, colour or print). Not part of the paper's 12."""
 
+_LEAF_GREEN_BGR = (70, 170, 40)  # hue 8 deg from the plane's green: the hue rule loses it
+_DARK_GREEN_BGR = (40, 85, 20)  # hue 13 deg from the plane's, value 0.53 of it
+_MID_BLUE_BGR = (170, 120, 60)
+_GREY_PLANE_BGR = (128, 128, 128)
+_LIGHT_GREY_BGR = (146, 146, 146)  # 14 % lighter than the grey plane
+_WHITE_PLANE_BGR = (218, 220, 222)  # a white board, a little darker than the white towel
+_BLACK_PLANE_BGR = (24, 24, 26)  # black velvet
+_BLACK_BGR = (46, 44, 44)  # black cloth, lighter than the velvet
+
+PLANE_COLOURED: dict[str, GarmentSpec] = {
+    spec.name: spec
+    for spec in (
+        GarmentSpec("green-print", "tshirt", "print", (220.0, 190.0), 201, _LEAF_GREEN_BGR,
+                    description="T-shirt, flowers on a leaf-green ground (the plane's hue)"),
+        GarmentSpec("green-hem", "skirt", "plain", (220.0, 180.0), 202, _MID_BLUE_BGR,
+                    hem=(15.0, _DARK_GREEN_BGR),
+                    description="blue skirt with a 15 mm dark-green hem"),
+        GarmentSpec("grey-on-grey", "sock", "plain", (150.0, 200.0), 203, _LIGHT_GREY_BGR,
+                    plane_bgr=_GREY_PLANE_BGR,
+                    description="light grey sock photographed on a grey plane"),
+        GarmentSpec("white-on-white", "towel", "plain", (240.0, 180.0), 204, _WHITE_BGR,
+                    plane_bgr=_WHITE_PLANE_BGR,
+                    description="white hand towel photographed on a white plane"),
+        GarmentSpec("black-on-black", "trousers", "plain", (160.0, 200.0), 205, _BLACK_BGR,
+                    plane_bgr=_BLACK_PLANE_BGR,
+                    description="black trousers photographed on black velvet"),
+    )
+}
+"""Garments whose colour, or part of it, is the model station plane's: not part of the
+paper's 12 (``all`` leaves them out, so that studies stay comparable); group
+``plane-coloured``."""
+
 GARMENT_GROUPS: dict[str, tuple[str, ...]] = {
     "all": tuple(CATALOGUE),
     "similar": ("No.1", "No.1-small", "No.3", "No.3-red", "No.4", "No.4-dots"),
+    "plane-coloured": tuple(PLANE_COLOURED),
 }
 """Named sets of garments for ``--garments``: ``all`` is the paper's 12, ``similar`` the
-look-alike pairs (each original with its twin)."""
+look-alike pairs (each original with its twin), ``plane-coloured`` the garments of
+:data:`PLANE_COLOURED`."""
 
-_SPECS: dict[str, GarmentSpec] = {**CATALOGUE, **SIMILAR}
+_SPECS: dict[str, GarmentSpec] = {**CATALOGUE, **SIMILAR, **PLANE_COLOURED}
 
 
 def garment_names() -> tuple[str, ...]:
@@ -146,7 +191,8 @@ def garment_names() -> tuple[str, ...]:
 
 
 def known_garments() -> tuple[str, ...]:
-    """Every garment :func:`catalogue_garment` builds: the paper's 12 and the look-alikes."""
+    """Every garment :func:`catalogue_garment` builds: the paper's 12, the look-alikes and the
+    plane-coloured ones."""
     return tuple(_SPECS)
 
 
@@ -179,10 +225,30 @@ def _build(name: str, mm_per_px: float) -> Garment:
     garment = make_garment(spec.shape, spec.fabric, spec.size_mm, rng=spec.seed,
                            mm_per_px=mm_per_px, colour_bgr=spec.colour_bgr, name=spec.name,
                            photo=spec.photo, description=spec.description)
+    if spec.hem is not None:
+        garment = _with_hem(garment, *spec.hem, rng=spec.seed + 1)
+    if spec.plane_bgr is not None:
+        garment = replace(garment, plane_bgr=spec.plane_bgr)
     # The cached garment is shared by every caller: make its arrays read-only.
     for array in (garment.texture.image_bgr, garment.texture.alpha, garment.texture.origin_px):
         array.flags.writeable = False
     return garment
+
+
+def _with_hem(garment: Garment, height_mm: float, colour_bgr: tuple[int, int, int],
+              rng: int) -> Garment:
+    """``garment`` with the band within ``height_mm`` of its bottom edge (column by column,
+    so that it follows a curved hem) recoloured with a plain fabric of ``colour_bgr``."""
+    tex = garment.texture
+    inside = tex.alpha > 0
+    rows = np.arange(tex.alpha.shape[0])[:, None]
+    bottom = np.where(inside.any(axis=0), tex.alpha.shape[0] - 1 - np.argmax(inside[::-1],
+                                                                              axis=0), -1)
+    band = rows >= bottom[None, :] - height_mm / tex.mm_per_px
+    cloth = plain_fabric(tex.size_px, colour_bgr, rng, mm_per_px=tex.mm_per_px).image_bgr
+    image = np.where(band[..., None], cloth, tex.image_bgr)
+    texture = PlaneTexture(image, tex.alpha, tex.mm_per_px, tex.origin_px)
+    return replace(garment, texture=texture)
 
 
 def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
@@ -191,8 +257,8 @@ def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
     Parameters
     ----------
     name : str
-        ``"No.1"`` ... ``"No.12"`` (see :func:`garment_names`) or a look-alike of
-        :data:`SIMILAR`.
+        ``"No.1"`` ... ``"No.12"`` (see :func:`garment_names`), a look-alike of
+        :data:`SIMILAR` or a garment of :data:`PLANE_COLOURED`.
     mm_per_px : float
         Texture pixel size, mm.
 

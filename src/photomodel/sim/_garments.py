@@ -75,6 +75,10 @@ class Garment:
         Fabric name (one of :data:`FABRICS`; ``"photo"`` for a user's garment; may be empty).
     description : str
         Words for people, e.g. ``"navy chinos"``.
+    plane_bgr : (3,), optional
+        Colour (BGR 0-255) of the model station's plane this garment is photographed on
+        (:func:`~photomodel.sim.render_model_photos`); None: the green
+        :data:`~photomodel.sim.MODEL_GREEN_BGR`.
     """
 
     name: str
@@ -83,6 +87,7 @@ class Garment:
     shape: str = ""
     fabric: str = ""
     description: str = ""
+    plane_bgr: tuple[int, int, int] | None = None
 
 
 def _neck(w: float, h: float, n: int = 12) -> NDArray[np.float64]:

@@ -19,7 +19,13 @@ from photomodel.sim._objects import OBJECT_KINDS, gripper, make_object, place_la
 from photomodel.sim._render import Layer, add_sensor_noise, blur, render_view, render_view_linear
 from photomodel.sim._rigs import MODEL_DISTANCE_MM, hand_table_pose
 from photomodel.sim._tables import make_table
-from photomodel.sim._textures import PlaneTexture, RngLike, table_plane, uniform_plane
+from photomodel.sim._textures import (
+    MODEL_GREEN_BGR,
+    PlaneTexture,
+    RngLike,
+    table_plane,
+    uniform_plane,
+)
 
 __all__ = [
     "POSITION_RANGE_MM",
@@ -49,11 +55,12 @@ def render_model_photos(
     offset_mm: tuple[float, float] = (6.0, -4.0),
     blur_sigma_px: float = 0.5,
 ) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
-    """The model station's two photos: the garment on the green plane, and the plane alone.
+    """The model station's two photos: the garment on the plane, and the plane alone.
 
     The plane lies :data:`MODEL_DISTANCE_MM` in front of the camera, facing it squarely
     (``T_cam_plane`` = translation (0, 0, 400)); the garment lies on it unrotated, its frame's
-    origin at ``offset_mm`` in the plane frame (near the image centre).
+    origin at ``offset_mm`` in the plane frame (near the image centre). The plane is the
+    garment's ``plane_bgr`` (the catalogue's plane-coloured cases), else the station's green.
 
     Parameters
     ----------
@@ -75,7 +82,8 @@ def render_model_photos(
     """
     gen = np.random.default_rng(rng)
     T_cam_plane = make_transform(np.eye(3), [0.0, 0.0, MODEL_DISTANCE_MM])
-    plane = uniform_plane(rng=gen)
+    plane = uniform_plane(MODEL_GREEN_BGR if garment.plane_bgr is None else garment.plane_bgr,
+                          rng=gen)
     item = (garment_placement(offset_mm[0], offset_mm[1], 0.0), garment.texture)
     photos = []
     for items in ([item], []):
