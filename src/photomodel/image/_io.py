@@ -176,8 +176,9 @@ def _png_check(path: str | os.PathLike[str], data: bytes) -> None:
             raise InputError(path, "truncated PNG (no IEND chunk: the file is cut short)")
         length, kind = struct.unpack_from(">I4s", data, pos)
         if pos + 12 + length > n:
-            raise InputError(path, f"truncated PNG (the file ends inside its "
-                                   f"{kind.decode('latin-1')} chunk)")
+            name = kind.decode("latin-1")   # a damaged file's chunk type may be any bytes
+            raise InputError(path, "truncated PNG (the file ends inside its "
+                                   f"{name if name.isalnum() else ascii(name)} chunk)")
         body = view[pos + 8:pos + 8 + length]
         (crc,) = struct.unpack_from(">I", data, pos + 8 + length)
         if zlib.crc32(body, zlib.crc32(kind)) != crc:
