@@ -83,7 +83,7 @@ Output: ``--out`` (JSON: meta with the commit and versions, settings, data, in-p
 per searches setting the service's start-up, memory and passes, targets with verdicts) and a
 table on stdout. Target misses are reported, the exit code stays 0.
 
-Run (full: searches 1, 2, 4 x clients 1, 2, 4 x 500 requests, about 10 minutes on two cores):
+Run (full: searches 1, 2, 4 x clients 1, 2, 4 x 500 requests; 6.5 minutes on two quiet cores):
 ``.venv/bin/python benchmarks/bench_service.py``
 Smoke: ``--quick`` (20 requests per client); ``--quick --requests 3 --clients 1 --searches 2``.
 """
