@@ -104,21 +104,10 @@ def _check_common(args: argparse.Namespace) -> None:
 def _run_directory(out: Path, files: tuple[str, ...]) -> Iterator[None]:
     """Hold ``out``'s run lock around a run and its report (a second run into ``out`` is
     refused); a directory made here that got no record is removed again on failure."""
-    from photomodel.experiments._lock import run_lock
-    from photomodel.experiments._run import remove_unused_run
+    from photomodel.experiments._run import run_directory
 
-    created = not out.exists()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(out, f"cannot create the run directory ({exc.strerror})") from None
-    try:
-        with run_lock(out):
-            yield
-    except BaseException:
-        if created:
-            remove_unused_run(out, files)
-        raise
+    with run_directory(out, files):
+        yield
 
 
 def run(args: argparse.Namespace) -> int:

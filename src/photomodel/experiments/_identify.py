@@ -36,12 +36,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.errors import InputError
-from photomodel.experiments._lock import run_lock
 from photomodel.experiments._run import (
     config_changes,
     pool_stream,
     read_json,
-    remove_unused_run,
+    run_directory,
     run_metadata,
     write_config,
 )
@@ -318,18 +317,8 @@ def run_identify_experiment(
         The summary (:func:`summarise_identify`) with the run's metadata.
     """
     out = Path(out)
-    created = not out.exists()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(out, f"cannot create the run directory ({exc.strerror})") from None
-    try:
-        with run_lock(out):   # one run at a time writes the directory
-            return _run_identify(out, config, workers, progress)
-    except BaseException:
-        if created:
-            remove_unused_run(out, ("identify_config.json", "identify_config.json.tmp"))
-        raise
+    with run_directory(out, ("identify_config.json", "identify_config.json.tmp")):
+        return _run_identify(out, config, workers, progress)
 
 
 def _run_identify(out: Path, config: IdentifyExperimentConfig, workers: int | None,

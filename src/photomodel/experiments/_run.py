@@ -219,6 +219,16 @@ def run_experiment(
         wall time and commit of each run that recorded trials).
     """
     out = Path(out)
+    with run_directory(out, ("config.json", "summary.json", "summary.json.tmp",
+                             "config.json.tmp")):
+        return _run(out, config, workers, scheduler, progress)
+
+
+@contextlib.contextmanager
+def run_directory(out: Path, files: Sequence[str]) -> Iterator[None]:
+    """Create run directory ``out`` if needed and hold its run lock inside (a second run into
+    ``out`` is refused); a directory made here that got no record is removed again on
+    failure (:func:`remove_unused_run` with ``files``)."""
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -226,11 +236,10 @@ def run_experiment(
         raise InputError(out, f"cannot create the run directory ({exc.strerror})") from None
     try:
         with run_lock(out):
-            return _run(out, config, workers, scheduler, progress)
+            yield
     except BaseException:
         if created:
-            remove_unused_run(out, ("config.json", "summary.json", "summary.json.tmp",
-                                    "config.json.tmp"))
+            remove_unused_run(out, files)
         raise
 
 
