@@ -223,12 +223,14 @@ class ModelLibrary:
     def __init__(self, root: str | os.PathLike[str], *, create: bool = False) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
-            if self.root.exists():
-                raise InputError(self.root, "is not a directory")
             if not create:
+                if self.root.exists():
+                    raise InputError(self.root, "is not a directory")
                 raise InputError(self.root, "model library directory not found")
             try:
                 self.root.mkdir(parents=True, exist_ok=True)  # another writer may race us
+            except FileExistsError:
+                raise InputError(self.root, "is not a directory") from None
             except OSError as exc:
                 raise InputError(self.root, f"cannot create it ({exc.strerror})") from None
 
