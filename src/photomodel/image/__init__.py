@@ -6,7 +6,8 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_hsv": ["bgr_to_hsv", "circular_mean_hue_deg", "hue_distance_deg"],
-        "_io": ["decode_color_image", "read_color_image", "read_grey_image", "write_image"],
+        "_io": ["decode_color_image", "decode_color_images", "read_color_image", "read_grey_image",
+                "write_image"],
         "_sample": ["sample_bilinear"],
     },
 )
@@ -15,6 +16,7 @@ __all__ = [
     "bgr_to_hsv",
     "circular_mean_hue_deg",
     "decode_color_image",
+    "decode_color_images",
     "hue_distance_deg",
     "read_color_image",
     "read_grey_image",

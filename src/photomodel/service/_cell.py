@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from photomodel.camera import PinholeCamera, StereoRig, load_camera, load_distance_mm, load_stereo
 from photomodel.errors import InputError
 from photomodel.identify import Identifier, IdentifyConfig
-from photomodel.image import decode_color_image
+from photomodel.image import decode_color_image, decode_color_images
 from photomodel.library import ModelLibrary, check_model_name
 from photomodel.library._library import LibraryEntry
 from photomodel.locate import Locator, draw_overlay, load_threshold
@@ -296,8 +296,7 @@ class CellService:
     # --- searches ----------------------------------------------------------------------------
 
     def _pair(self, right: bytes, left: bytes) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
-        right_bgr = decode_color_image(right, "right")
-        left_bgr = decode_color_image(left, "left")
+        right_bgr, left_bgr = decode_color_images([(right, "right"), (left, "left")])
         self.rig.cam1.check_image(right_bgr, "right")
         self.rig.cam2.check_image(left_bgr, "left")
         return right_bgr, left_bgr
