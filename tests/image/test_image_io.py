@@ -247,3 +247,34 @@ def test_bytes_from_a_client_are_checked_alike(capfd) -> None:
     with pytest.raises(InputError, match="upload: damaged"):
         decode_color_image(_encoded(".jpg")[:300], "upload")
     assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("ext", [".png", ".jpg", ".bmp"])
+def test_a_pair_decoded_at_once_equals_one_by_one(ext: str, capfd) -> None:
+    right, left = _encoded(ext, _image(8)), _encoded(ext, _image(9))
+    pair = image_io.decode_color_images([(right, "right"), (left, "left")])
+    np.testing.assert_array_equal(pair[0], decode_color_image(right, "right"))
+    np.testing.assert_array_equal(pair[1], decode_color_image(left, "left"))
+    assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("damaged", [0, 1])
+def test_in_a_pair_each_message_names_its_own_file(damaged: int, capfd) -> None:
+    """The two views decode in parallel threads; what a decoder says is told to the file it
+    is about, whichever of the two it is."""
+    good = _encoded(".png", _image(10))
+    bad_png = _png(16, 16, idat=b"\x78\x9c" + b"\xff" * 30)
+    files = [(good, "right"), (good, "left")]
+    files[damaged] = (bad_png, files[damaged][1])
+    with pytest.raises(InputError) as info:
+        image_io.decode_color_images(files)
+    assert info.value.source == files[damaged][1] and "IDAT" in str(info.value)
+    jpeg = _encoded(".jpg", _image(6, (120, 160)))
+    files = [(_encoded(".jpg", _image(5, (120, 160))), "right"), (jpeg, "left")]
+    files[damaged] = (jpeg[:len(jpeg) * 2 // 3] + b"\xff\xd9", files[damaged][1])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        images = image_io.decode_color_images(files)
+    assert [im.shape for im in images] == [(120, 160, 3)] * 2
+    assert [str(w.message).split(":")[0] for w in caught] == [files[damaged][1]]
+    assert capfd.readouterr().err == ""

@@ -111,7 +111,8 @@ def decode_color_images(files: Sequence[tuple[bytes, str | os.PathLike[str]]]
                                      "MiB photomodel reads")
         checked.append(_checked(source, data, "image"))
     decoded = _decode_many([np.frombuffer(data, dtype=np.uint8) for data, _ in files],
-                           cv2.IMREAD_UNCHANGED)
+                           cv2.IMREAD_UNCHANGED,
+                           parallel=sum(fmt != "BMP" for fmt in checked) > 1)
     return [_colour(source, *_judged(source, fmt, image, messages, stacklevel=4))
             for (_, source), fmt, (image, messages) in zip(files, checked, decoded, strict=True)]
 
@@ -308,19 +309,20 @@ def _jpeg_check(path: str | os.PathLike[str], data: bytes) -> None:
 # --- decoding ------------------------------------------------------------------------------
 
 
-def _decode_many(arrays: Sequence[NDArray[np.uint8]], flags: int
+def _decode_many(arrays: Sequence[NDArray[np.uint8]], flags: int, parallel: bool = False
                  ) -> list[tuple[NDArray | None, list[str]]]:
     """``cv2.imdecode`` of each array with OpenCV's log off and the decoders' own stderr
-    messages caught: [(image or None, its messages)]. Several arrays are decoded in parallel
-    threads inside one catching window; if the decoders said anything there, the arrays are
-    decoded again one by one, so that each message is told to the file it is about."""
+    messages caught: [(image or None, its messages)]. With ``parallel`` (compressed files:
+    a thread costs more than copying a BMP) the arrays are decoded in parallel threads inside
+    one catching window; if the decoders said anything there, the arrays are decoded again
+    one by one, so that each message is told to the file it is about."""
     with _DECODE_LOCK:
         level = cv2.utils.logging.getLogLevel()
         cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
         try:
             with _stderr_caught() as caught:
-                if len(arrays) == 1:
-                    images = [_imdecode(arrays[0], flags)]
+                if len(arrays) == 1 or not parallel:
+                    images = [_imdecode(a, flags) for a in arrays]
                 else:
                     with ThreadPoolExecutor(len(arrays) - 1) as pool:
                         rest = [pool.submit(_imdecode, a, flags) for a in arrays[1:]]
