@@ -16,6 +16,7 @@ import pytest
 from calib_helpers import CHARUCO_PATTERN, STATION_DISTANCE_MM, StationData, StereoData
 from scipy.spatial.transform import Rotation
 
+from photomodel.calibrate import distortion_difference_px
 from photomodel.camera import PinholeCamera, load_camera, load_distance_mm, load_stereo
 from photomodel.cli import main
 
@@ -33,21 +34,6 @@ def _check_camera(est: PinholeCamera, true: PinholeCamera, focal_rel: float = 0.
     np.testing.assert_allclose(est.K[:2, 2], true.K[:2, 2], atol=pp_px)
 
 
-def _distortion_error_px(est: PinholeCamera, true: PinholeCamera, inset: float) -> float:
-    """How far the fitted distortion bends the image from the true one, px: a grid of pixels
-    over the image (less ``inset`` of each side) undistorted by both models, the largest
-    difference left once a homography (what the intrinsics and a turn of the camera
-    change) maps the true rays onto the fitted ones."""
-    w, h = true.image_size
-    uu, vv = np.meshgrid(np.linspace(inset * w, (1 - inset) * w - 1, 25),
-                         np.linspace(inset * h, (1 - inset) * h - 1, 19))
-    uv = np.stack([uu.ravel(), vv.ravel()], axis=-1)
-    xy_true, xy_est = true.undistort_pixels(uv), est.undistort_pixels(uv)
-    H, _ = cv2.findHomography(xy_true, xy_est, 0)
-    mapped = cv2.perspectiveTransform(xy_true.reshape(-1, 1, 2), H).reshape(-1, 2)
-    return float(np.abs(mapped - xy_est).max() * est.K[0, 0])
-
-
 def test_stereo_calibration_recovers_the_rig(capsys, stereo_data: StereoData,
                                              tmp_path: Path) -> None:
     out = tmp_path / "cal" / "rig.yaml"
@@ -63,8 +49,8 @@ def test_stereo_calibration_recovers_the_rig(capsys, stereo_data: StereoData,
     assert np.degrees(Rotation.from_matrix(rig.R @ true.R.T).magnitude()) < 0.05
     # k3 fixed (the default): right over the whole image, the rim no view reaches included
     assert rig.cam1.dist.size == 5 and rig.cam1.dist[4] == 0.0
-    assert _distortion_error_px(rig.cam1, true.cam1, 0.0) < 0.1
-    assert _distortion_error_px(rig.cam2, true.cam2, 0.0) < 0.1
+    assert distortion_difference_px(rig.cam1, true.cam1, 0.0) < 0.1
+    assert distortion_difference_px(rig.cam2, true.cam2, 0.0) < 0.1
     # what it prints: RMS per camera and of the stereo fit, per view, nothing skipped
     assert result["rms_px"] < 0.1 and result["right"]["rms_px"] < 0.1
     assert len(result["pairs"]) == 15 and result["skipped"] == []
@@ -90,7 +76,7 @@ def test_stereo_calibration_with_a_charuco_board(capsys, charuco_data: StereoDat
     _check_camera(rig.cam2, true.cam2)
     assert abs(np.linalg.norm(rig.T) - np.linalg.norm(true.T)) < 0.2
     assert np.degrees(Rotation.from_matrix(rig.R @ true.R.T).magnitude()) < 0.05
-    assert _distortion_error_px(rig.cam2, true.cam2, 0.0) < 0.1
+    assert distortion_difference_px(rig.cam2, true.cam2, 0.0) < 0.1
 
 
 def test_stereo_lists_and_skips_a_pair_without_the_board(capsys, stereo_data: StereoData,
@@ -122,7 +108,7 @@ def test_camera_calibration_and_plane_distance(capsys, station_data: StationData
     _check_camera(camera, station_data.camera)
     # k3 free: right where the views reach (it extrapolates the rim; see the stereo test)
     assert camera.dist.size == 5 and camera.dist[4] != 0.0
-    assert _distortion_error_px(camera, station_data.camera, 0.1) < 0.1
+    assert distortion_difference_px(camera, station_data.camera, 0.1) < 0.1
     distance = load_distance_mm(out)
     assert distance == pytest.approx(STATION_DISTANCE_MM, abs=0.5)
     assert result["distance_mm"] == pytest.approx(distance)

@@ -1,4 +1,5 @@
-"""``photomodel demo``: simulate, build a library, locate, identify, through the real commands."""
+"""``photomodel demo``: simulate, calibrate, build a library, locate, pick, identify, through the
+real commands and with no file written by hand."""
 
 from __future__ import annotations
 
@@ -16,8 +17,17 @@ def test_demo_runs_end_to_end_and_finds_the_true_pose(tmp_path: Path,
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--seed", "3", "--garments", "No.1,No.3"]) == 0
     text = capsys.readouterr().out
-    for command in ("simulate", "build", "locate", "identify"):
+    for command in ("simulate", "calibrate stereo", "calibrate camera", "handeye", "build",
+                    "locate", "pick", "identify"):
         assert f"$ photomodel {command}" in text
+    for name in ("stereo.yaml", "station.yaml", "hand_eye.yaml", "stereo.coverage.png"):
+        assert (out / "calibration" / name).is_file()
+    # every later step reads the calibrations the demo made, not the simulator's files
+    assert "--stereo " + str(out / "data" / "stereo.yaml") not in text
+    assert "--camera " + str(out / "data" / "model_camera.yaml") not in text
+    pick = next(line for line in text.splitlines() if line.startswith("pick:"))
+    assert float(pick.split(" mm from the truth")[0].rsplit(", ", 1)[1]) < 2.0
+    assert json.loads((out / "pick.json").read_text())["reachable"] is True
     for name in ("stereo.yaml", "model_camera.yaml", "truth.json",
                  "models/No.1/photo.bmp", "models/No.1/background.bmp"):
         assert (out / "data" / name).is_file()

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -74,11 +75,28 @@ class Chessboard:
         """``"9x6 chessboard"``."""
         return f"{self.inner_corners[0]}x{self.inner_corners[1]} chessboard"
 
+    @property
+    def pattern(self) -> str:
+        """The ``--pattern`` of ``photomodel calibrate``: ``chessboard:COLSxROWS:SQUARE_MM``."""
+        cols, rows = self.inner_corners
+        return f"chessboard:{cols}x{rows}:{self.square_mm:g}"
+
+    @property
+    def centre_mm(self) -> NDArray[np.float64]:
+        """Centre (3,) of the inner corners, target frame, mm."""
+        cols, rows = self.inner_corners
+        return np.array([(cols - 1) / 2.0, (rows - 1) / 2.0, 0.0]) * self.square_mm
+
     def object_points(self) -> NDArray[np.float64]:
         """Inner corners (N, 3) in the target frame, mm, in OpenCV's detection order."""
         cols, rows = self.inner_corners
         gx, gy = np.meshgrid(np.arange(cols), np.arange(rows))
         return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)]) * self.square_mm
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """``{"inner_corners": [cols, rows], "square_mm": s}`` (a hand-eye pairs file's
+        ``chessboard``)."""
+        return {"inner_corners": list(self.inner_corners), "square_mm": self.square_mm}
 
 
 def charuco_available() -> bool:

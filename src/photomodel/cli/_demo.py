@@ -1,11 +1,17 @@
 """``photomodel demo``: an end-to-end run on built-in (simulated) data.
 
-Simulates a dataset (``photomodel simulate``: the garments' model photos, the stereo
-calibration, one stereo scene per garment with its truth), then runs the real commands on
-those files: ``build`` of every garment into a model library, ``locate`` of the first garment
-in its scene (with an overlay picture), and ``identify`` in the last garment's scene, and
-prints the estimated pose beside the true one. Layout under ``--out``: ``data/`` (the
-dataset), ``models/<name>.npz`` (the library, with previews), ``overlay.png``.
+Simulates a cell (``photomodel simulate``: chessboard views for the calibrations, the garments'
+model photos, one stereo scene per garment with its truth), then runs the real commands on
+those files, with no file written by hand: ``calibrate stereo`` (the hand rig) and
+``calibrate camera`` (the model station) from the board views, ``handeye`` from the arm's
+joint angles and camera 1's board views, ``build`` of every garment into a model library
+with the calibrated station camera, ``locate`` of the first garment in its scene with the
+calibrated rig (with an overlay picture), ``identify`` in the last garment's scene, and
+``pick`` of the first garment (the arm's joints when the scene was taken, the calibrated
+hand-eye transform). Prints the estimated pose and grasp beside the true ones. Layout under
+``--out``: ``data/`` (the dataset), ``calibration/`` (stereo.yaml, station.yaml,
+hand_eye.yaml and their pictures), ``models/<name>.npz`` (the library, with previews),
+``overlay.png``, ``pick.json``.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from typing import Any
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="simulate scenes, build models, locate and identify",
+    p = sub.add_parser("demo", help="simulate a cell; calibrate, build, locate, pick and identify",
                        description="End-to-end demo on simulated data (no camera needed).")
     p.add_argument("--out", type=Path, default=Path("build/demo"), help="output directory")
     p.add_argument("--seed", type=int, default=3,
@@ -28,6 +34,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--garments", "--garment", default="No.3,No.5,No.9",
                    help="catalogue garments, comma-separated (No.1 ... No.12); the first is "
                         "located, the last identified")
+    p.add_argument("--calibration-views", type=int, default=12, metavar="N",
+                   help="chessboard views per calibration set, 3 to 200 (default 12)")
     p.add_argument("--conditions", "--condition", default="paper",
                    help="simulated conditions, e.g. paper, wood+wrinkles (see simulate --help)")
     p.set_defaults(run=run)
@@ -36,17 +44,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from photomodel.cli._main import main
     from photomodel.cli._options import check_seed
+    from photomodel.sim._calibration import CALIBRATION_BOARD
 
     check_seed(args.seed)
     out: Path = args.out
-    data, library = out / "data", out / "models"
+    data, cal, library = out / "data", out / "calibration", out / "models"
+    boards = data / "calibration"
+    pattern = CALIBRATION_BOARD.pattern
+    stereo, station, hand_eye = cal / "stereo.yaml", cal / "station.yaml", cal / "hand_eye.yaml"
     names = [g.strip() for g in args.garments.split(",") if g.strip()]
-    steps = [["simulate", "--out", str(data), "--garments", ",".join(names), "--conditions",
-              args.conditions, "--scenes", "1", "--seed", str(args.seed), "--force"]]
+    steps = [
+        ["simulate", "--out", str(data), "--garments", ",".join(names), "--conditions",
+         args.conditions, "--scenes", "1", "--seed", str(args.seed), "--calibration-views",
+         str(args.calibration_views), "--force"],
+        ["calibrate", "stereo", "--pairs", str(boards / "pairs"), "--pattern", pattern,
+         "--out", str(stereo)],
+        ["calibrate", "camera", "--images", str(boards / "station" / "views"), "--plane",
+         str(boards / "station" / "plane.png"), "--pattern", pattern, "--out", str(station)],
+        ["handeye", "--pairs", str(boards / "handeye" / "pairs.json"), "--stereo", str(stereo),
+         "--out", str(hand_eye)],
+    ]
     steps += [["build", "--photo", str(data / "models" / g / "photo.bmp"),
                "--background", str(data / "models" / g / "background.bmp"),
-               "--camera", str(data / "model_camera.yaml"), "--out", str(library / f"{g}.npz"),
-               "--name", g] for g in names]
+               "--camera", str(station), "--out", str(library / f"{g}.npz"), "--name", g]
+              for g in names]
     for argv in steps:
         code, _ = _step(main, argv)
         if code:
@@ -56,15 +77,24 @@ def run(args: argparse.Namespace) -> int:
     first, last = names[0], names[-1]
     scene = data / "scenes" / scenes[first]
     code, text = _step(main, [
-        "locate", "--model", str(library / f"{first}.npz"), "--stereo", str(data / "stereo.yaml"),
+        "locate", "--model", str(library / f"{first}.npz"), "--stereo", str(stereo),
         "--right", str(scene / "right.png"), "--left", str(scene / "left.png"),
         "--seed", str(args.seed), "--json", "--overlay", str(out / "overlay.png")])
     if code:
         return code
     _compare(scenes[first], json.loads(text), truth[scenes[first]])
+    joints = json.loads((boards / "handeye" / "photo_joints.json").read_text())["joints_deg"]
+    code, text = _step(main, [
+        "pick", "--model", str(library / f"{first}.npz"), "--stereo", str(stereo),
+        "--right", str(scene / "right.png"), "--left", str(scene / "left.png"),
+        "--hand-eye", str(hand_eye), "--joints-deg", *[f"{q:.6f}" for q in joints],
+        "--seed", str(args.seed), "--out", str(out / "pick.json")], echo=False)
+    if code:
+        return code
+    _compare_pick(json.loads(text), truth[scenes[first]], boards / "truth.json")
     scene = data / "scenes" / scenes[last]
     code, text = _step(main, [
-        "identify", "--models", str(library), "--stereo", str(data / "stereo.yaml"),
+        "identify", "--models", str(library), "--stereo", str(stereo),
         "--right", str(scene / "right.png"), "--left", str(scene / "left.png"),
         "--seed", str(args.seed), "--json"])
     if code:
@@ -72,8 +102,28 @@ def run(args: argparse.Namespace) -> int:
     answer = json.loads(text)
     print(f"\nidentify in scene {scenes[last]}: {answer['model']} (truth {last}), score "
           f"{answer['score']:.3f}, runner-up {answer['runner_up']['model']}")
-    print(f"\noverlay: {out / 'overlay.png'}, model previews: {library}/*.preview.png")
+    print(f"\ncalibrations: {cal}/*.yaml (coverage and error pictures beside them); overlay: "
+          f"{out / 'overlay.png'}; model previews: {library}/*.preview.png; pick plan: "
+          f"{out / 'pick.json'}")
     return 0
+
+
+def _compare_pick(plan: dict[str, Any], facts: dict[str, Any], calibration_truth: Path
+                  ) -> None:
+    """Print the planned grasp (the model's origin in the base frame) beside the truth."""
+    import numpy as np
+
+    from photomodel.robot import load_arm
+    from photomodel.robot._kinematics import forward_kinematics
+
+    cal = json.loads(calibration_truth.read_text())
+    q = np.radians(cal["photo_joints_deg"])
+    T_true = (forward_kinematics(load_arm(cal["arm"]), q) @ np.array(cal["T_hand_cam1"])
+              @ np.array(facts["T_cam1_model"]))
+    est = np.array(plan["T_base_model"])[:3, 3]
+    print(f"pick: garment origin in the base frame ({est[0]:.1f}, {est[1]:.1f}, {est[2]:.1f}) "
+          f"mm, {np.linalg.norm(est - T_true[:3, 3]):.2f} mm from the truth; "
+          f"{len(plan.get('waypoints', []))} waypoints, plan in pick.json")
 
 
 def _compare(scene_id: str, est: dict[str, Any], facts: dict[str, Any]) -> None:
@@ -93,14 +143,16 @@ def _compare(scene_id: str, est: dict[str, Any], facts: dict[str, Any]) -> None:
     print(f"found={est['found']} score={est['score']:.3f} in {est['seconds']:.2f} s")
 
 
-def _step(main, argv: list[str]) -> tuple[int, str]:  # type: ignore[no-untyped-def]
-    """Run one ``photomodel`` command, echoing it and its standard output."""
+def _step(main, argv: list[str], echo: bool = True  # type: ignore[no-untyped-def]
+          ) -> tuple[int, str]:
+    """Run one ``photomodel`` command, echoing it and (``echo``) its standard output."""
     print(f"\n$ photomodel {shlex.join(argv)}")
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         code = main(argv)
     text = buf.getvalue()
-    print(text.rstrip())
+    if echo:
+        print(text.rstrip())
     return code, text
 
 

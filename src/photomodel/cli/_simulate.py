@@ -21,8 +21,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, type=Path, help="dataset directory to create")
     p.add_argument("--garments", default="all",
                    help="comma-separated catalogue names (No.1,...,No.12, look-alikes such as "
-                        "No.3-red) or groups: 'all' (the paper's 12, default), 'similar' "
-                        "(look-alike pairs)")
+                        "No.3-red, plane-coloured ones such as green-print) or groups: 'all' "
+                        "(the paper's 12, default), 'similar' (look-alike pairs), "
+                        "'plane-coloured' (garments partly or wholly of a station plane's "
+                        "colour, each on its plane)")
     p.add_argument("--scenes", type=int, default=1, metavar="N",
                    help="scenes per garment and condition, 1 to 10000 (default 1)")
     p.add_argument("--conditions", default="paper",

@@ -59,6 +59,7 @@ _DECODER_LINE = re.compile(
     r"Inconsistent progression|Unknown Adobe|Application transferred|\[ ?(WARN|ERROR|INFO)\b)")
 _DAMAGE = re.compile(r"Corrupt JPEG|Premature end|IDAT|incomplete|extraneous", re.IGNORECASE)
 _DECODE_LOCK = threading.Lock()  # one decode at a time may borrow file descriptor 2
+_DECODER: ThreadPoolExecutor | None = None
 
 
 def read_color_image(path: str | os.PathLike[str]) -> NDArray[np.uint8]:
@@ -324,9 +325,8 @@ def _decode_many(arrays: Sequence[NDArray[np.uint8]], flags: int, parallel: bool
                 if len(arrays) == 1 or not parallel:
                     images = [_imdecode(a, flags) for a in arrays]
                 else:
-                    with ThreadPoolExecutor(len(arrays) - 1) as pool:
-                        rest = [pool.submit(_imdecode, a, flags) for a in arrays[1:]]
-                        images = [_imdecode(arrays[0], flags)] + [f.result() for f in rest]
+                    rest = [_decoder().submit(_imdecode, a, flags) for a in arrays[1:]]
+                    images = [_imdecode(arrays[0], flags)] + [f.result() for f in rest]
             said = [m for m in caught if m]
             if len(arrays) == 1:
                 return [(images[0], said)]
@@ -340,6 +340,15 @@ def _decode_many(arrays: Sequence[NDArray[np.uint8]], flags: int, parallel: bool
             return answers
         finally:
             cv2.utils.logging.setLogLevel(level)
+
+
+def _decoder() -> ThreadPoolExecutor:
+    """The one thread that decodes the second of several files (held: ``_DECODE_LOCK``):
+    made once, so that no thread and no malloc arena is made per decode."""
+    global _DECODER
+    if _DECODER is None:
+        _DECODER = ThreadPoolExecutor(1, thread_name_prefix="photomodel-decode")
+    return _DECODER
 
 
 def _imdecode(data: NDArray[np.uint8], flags: int) -> NDArray | None:

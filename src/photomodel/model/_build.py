@@ -333,6 +333,8 @@ def build_photo_model(
         "centroid_in_camera_mm": [float(centroid[0]), float(centroid[1]), float(distance_mm)],
         "area_mm2": float(area_mm2),
         "plane_colour_share": quality.plane_colour_share,
+        "hue_rule_shift_mm": quality.hue_rule_shift_mm,
+        "hue_rule_area_ratio": quality.hue_rule_area_ratio,
         "build_config": asdict(cfg),
     }
     model = PhotoModel(

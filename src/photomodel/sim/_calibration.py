@@ -9,6 +9,8 @@ and the hand-eye calibration (what ``photomodel simulate --calibration-views N``
     DIR/calibration/station/plane.png         the board lying flat ON the model plane
     DIR/calibration/handeye/pairs.json        joints (PA10-7C, deg) + camera-1 images, the
     DIR/calibration/handeye/images/<id>.png   format ``photomodel handeye --pairs`` reads
+    DIR/calibration/handeye/photo_joints.json the joints at which the scenes were taken
+                                              (``photomodel pick --joints-deg``)
     DIR/calibration/truth.json                cameras, T_hand_cam1, board, every T_cam_board
     DIR/calibration/README.txt                what is there and which commands read it
 
@@ -54,6 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from photomodel.calibrate._pattern import Chessboard
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.image import write_image
@@ -88,8 +91,9 @@ _BORDER_PX = 4.0  # the whole board (quiet zone included) stays this far inside 
 
 
 @dataclass(frozen=True)
-class BoardSpec:
-    """A printed chessboard target.
+class BoardSpec(Chessboard):
+    """A printed chessboard target: the :class:`~photomodel.calibrate.Chessboard` that
+    ``photomodel calibrate`` detects, with the white quiet zone the simulator prints around it.
 
     Parameters
     ----------
@@ -106,15 +110,9 @@ class BoardSpec:
     margin_squares: float = 1.0
 
     def __post_init__(self) -> None:
-        if min(self.inner_corners) < 2 or self.square_mm <= 0 or self.margin_squares < 0:
-            raise ValueError("board: expected at least 2 x 2 inner corners, a positive square "
-                             "and a non-negative margin")
-
-    def object_points(self) -> NDArray[np.float64]:
-        """Inner corners (N, 3) in the board frame, mm, row by row (OpenCV's order)."""
-        cols, rows = self.inner_corners
-        gx, gy = np.meshgrid(np.arange(cols), np.arange(rows))
-        return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)]) * self.square_mm
+        super().__post_init__()
+        if not self.margin_squares >= 0:
+            raise ValueError("board: expected a non-negative margin")
 
     def outline_mm(self) -> NDArray[np.float64]:
         """Points (M, 3) along the board's outer edge (quiet zone included), board frame."""
@@ -127,21 +125,6 @@ class BoardSpec:
         edges = np.concatenate([a + t * (b - a) for a, b in
                                 zip(corners, np.roll(corners, -1, axis=0), strict=True)])
         return np.column_stack([edges, np.zeros(len(edges))])
-
-    @property
-    def centre_mm(self) -> NDArray[np.float64]:
-        """Centre (3,) of the inner corners, board frame, mm."""
-        cols, rows = self.inner_corners
-        return np.array([(cols - 1) / 2.0, (rows - 1) / 2.0, 0.0]) * self.square_mm
-
-    def to_json_dict(self) -> dict[str, Any]:
-        return {"inner_corners": list(self.inner_corners), "square_mm": self.square_mm}
-
-    @property
-    def pattern(self) -> str:
-        """The ``--pattern`` of ``photomodel calibrate``: ``chessboard:COLSxROWS:SQUARE_MM``."""
-        cols, rows = self.inner_corners
-        return f"chessboard:{cols}x{rows}:{self.square_mm:g}"
 
 
 CALIBRATION_BOARD = BoardSpec()
@@ -299,7 +282,7 @@ class _HandEyeView:
 
 def _hand_eye_views(rig: StereoRig, board: BoardSpec, n_views: int, seed: int
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], list[_HandEyeView],
-                               NDArray[np.float64]]:
+                               NDArray[np.float64], NDArray[np.float64]]:
     """The simulated cell's mount, the board on the table and ``n_views`` reachable hand poses.
 
     The board lies on the work table (:class:`CellLayout`'s centre), its x along the table's x;
@@ -314,6 +297,8 @@ def _hand_eye_views(rig: StereoRig, board: BoardSpec, n_views: int, seed: int
     T_hand_cam1, T_base_board : ndarray (4, 4)
     views : list of _HandEyeView
     T_base_table : ndarray (4, 4)
+    q_photo : ndarray (7,)
+        The joints (rad) at which the scenes are photographed.
     """
     from photomodel.robot import load_arm
     from photomodel.robot._cell import _T_base_table, default_hand_eye, photo_configuration
@@ -365,7 +350,7 @@ def _hand_eye_views(rig: StereoRig, board: BoardSpec, n_views: int, seed: int
         if not _fits(cam1, T_cam1_board, board):
             continue
         views.append(_HandEyeView(joints_deg, T_base_hand, T_cam1_board))
-    return X, T_base_board, views, T_base_table
+    return X, T_base_board, views, T_base_table, q_photo
 
 
 # --- Writer -----------------------------------------------------------------------------------
@@ -393,6 +378,7 @@ station/plane.png                 the board lying flat ON the model plane, its p
                                   (a real board of thickness t: add t)
 handeye/pairs.json, images/       PA10-7C joint angles (deg) and camera 1's image of a board
                                   lying on the work table, fixed in the base frame, {n} pairs
+handeye/photo_joints.json         the arm's joints (deg) when the scenes were photographed
 truth.json                        the true cameras (K, D, R, T, image size), T_hand_cam1 (mm),
                                   the board, and every view's true T_cam_board (mm)
 
@@ -402,6 +388,7 @@ Commands that read it (DIR = the dataset directory):
       --plane DIR/calibration/station/plane.png --pattern {pattern} --out cam.yaml
   photomodel handeye --pairs DIR/calibration/handeye/pairs.json --stereo DIR/stereo.yaml \\
       --out hand_eye.yaml
+  photomodel pick --hand-eye hand_eye.yaml --joints-deg <handeye/photo_joints.json> ...
 Compare their results with truth.json (and with DIR/stereo.yaml, DIR/model_camera.yaml).
 """
 
@@ -492,7 +479,8 @@ def write_calibration(
                 _render(station, T_cam_plane, plane, T_cam_board, texture, conditions, rng))
     done("station plane")
 
-    X, T_base_board, he_views, T_base_table = _hand_eye_views(rig, board, views, seed)
+    X, T_base_board, he_views, T_base_table, q_photo = _hand_eye_views(rig, board, views,
+                                                                        seed)
     table = uniform_plane(TABLE_GREY_BGR, (3000.0, 3000.0), mm_per_px=2.0,
                           rng=scene_rng(seed, "calibration", "handeye-table"), noise=2.0,
                           mottle=5.0)
@@ -512,6 +500,11 @@ def write_calibration(
         done(f"hand-eye view {vid}")
     (root / "handeye" / "pairs.json").write_text(dumps_json(
         {"pairs": he_pairs, "chessboard": board.to_json_dict()}))
+    photo_joints = [float(a) for a in np.degrees(q_photo)]
+    (root / "handeye" / "photo_joints.json").write_text(dumps_json(
+        {"joints_deg": photo_joints, "arm": "pa10-7c",
+         "note": "the arm's joints when the scenes were photographed (what the robot "
+                 "controller reports): photomodel pick --joints-deg"}))
 
     truth = {
         "board": {**board.to_json_dict(), "margin_squares": board.margin_squares,
@@ -524,6 +517,7 @@ def write_calibration(
                 "image_size": [rig.cam1.width_px, rig.cam1.height_px]},
         "station": {**_camera_json(station), "distance_mm": MODEL_DISTANCE_MM},
         "T_hand_cam1": X.tolist(),
+        "photo_joints_deg": photo_joints,
         "T_base_board": T_base_board.tolist(),
         "arm": "pa10-7c",
         "pairs": pairs,
