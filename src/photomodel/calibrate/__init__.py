@@ -38,8 +38,6 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "chessboard_pose",
             "find_corners",
             "pose_from_corners",
-    "stereo_difference",
-    "transform_difference",
         ],
         "_pattern": ["CharucoBoard", "Chessboard", "Target", "charuco_available", "parse_pattern"],
         "_plots": ["coverage_png", "errors_png", "plot_paths", "write_plots"],
