@@ -46,7 +46,7 @@ GENERATE = "python scripts/bad_inputs.py --out docs/bad-inputs.md"
 TIMEOUT_S = 300.0
 MAX_LINE_CHARS = 300
 
-GROUPS = ("Images", "Calibrations", "Model files", "Model library", "Options")
+GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Options")
 
 # The valid files every case starts from (written by `setup`); a case replaces one of them.
 VALID = {
@@ -403,6 +403,53 @@ def _keeps(name: str, content: str) -> tuple[Callable[[Path], None],
     return prepare, verify
 
 
+CAL_PAIRS = "D/calibration/pairs"
+CAL_PATTERN = "chessboard:9x6:25"          # the simulator's board (``CALIBRATION_BOARD``)
+
+
+def _pairs(folder: str, ids: Sequence[str] = ("0000", "0001", "0002"),
+           change: Callable[[Path], None] | None = None) -> Callable[[Path], None]:
+    """A ``prepare``: ``folder``, a copy of the simulated pair folders ``ids``, then
+    ``change(folder)``."""
+
+    def prepare(work: Path) -> None:
+        for vid in ids:
+            shutil.copytree(work / CAL_PAIRS / vid, work / folder / vid)
+        if change is not None:
+            change(work / folder)
+
+    return prepare
+
+
+def _resized(name: str, size: tuple[int, int]) -> Callable[[Path], None]:
+    def change(folder: Path) -> None:
+        image = cv2.imread(str(folder / name), cv2.IMREAD_COLOR)
+        assert cv2.imwrite(str(folder / name), cv2.resize(image, size))
+
+    return change
+
+
+def _plain_views(work: Path) -> None:
+    """``plain/``: three plain grey 640 x 480 views, no board in them."""
+    (work / "plain").mkdir()
+    for k in range(3):
+        assert cv2.imwrite(str(work / "plain" / f"{k:04d}.png"),
+                           np.full((480, 640, 3), 70 + 60 * k, np.uint8))
+
+
+def _no_calibration(out: str, kept: bool = False) -> Callable[[Path], str | None]:
+    """A ``verify``: nothing named after ``out`` beside it (the file itself unless ``kept``,
+    its ``.coverage.png`` and ``.errors.png``, a temporary file)."""
+
+    def verify(work: Path) -> str | None:
+        path = work / out
+        left = sorted(p.name for p in path.parent.glob(f"*{path.stem}*")
+                      if not (kept and p.name == path.name))
+        return f"left behind {', '.join(left)}" if left else None
+
+    return verify
+
+
 def _locked_run(work: Path) -> None:
     """``run/``, a run directory with a record, whose lock ``run/.lock`` the script holds
     while the cases run (as a running ``experiment`` does)."""
@@ -418,6 +465,19 @@ def cases() -> list[Case]:
     sim = ("--garments", "No.3", "--scenes", "1")
     exp = ("--garments", "No.3", "--trials", "1", "--workers", "1", "--no-report")
     keep_prepare, keep_verify = _keeps("notes.txt", "precious\n")
+    old_cal = "%YAML:1.0\n# the model camera, calibrated last week\n"
+    cal_keep_prepare, cal_keep_verify = _keeps("cal_old.yaml", old_cal)
+    no_plots = _no_calibration("cal_old.yaml", kept=True)
+
+    def stereo(name: str, pairs: str, pattern: str = CAL_PATTERN, out: str | None = None,
+               **kwargs: Any) -> Case:
+        """``calibrate stereo``, by default into ``out/cal-SLUG.yaml``, left unwritten."""
+        if out is None:
+            out = "out/cal-" + re.sub(r"[^a-z0-9]+", "-", name.lower()).strip("-") + ".yaml"
+        kwargs.setdefault("verify", _no_calibration(out))
+        return _case("Calibrating", name, "calibrate", "stereo", "--pairs", pairs, "--pattern",
+                     pattern, "--out", out, **kwargs)
+
     huge_png, huge_bmp = _png_claiming(60000, 60000), _bmp_claiming(60000, 60000)
     return [
         # images
@@ -466,6 +526,24 @@ def cases() -> list[Case]:
         _case("Calibrations", "ROS CameraInfo message (`width`, `height`, `K`, `D`)", "build",
               "--camera", "camera_info.yaml", expected_code=0, summary=_built,
               prepare=_writes("camera_info.yaml", _camera_info)),
+        # calibrating (`photomodel calibrate`, the simulated chessboard views)
+        stereo("two pairs (3 needed)", "cal_two", prepare=_pairs("cal_two", ("0000", "0001"))),
+        stereo("wrong board size (`7x5` for the 9x6 board)", CAL_PAIRS, "chessboard:7x5:25"),
+        stereo("malformed `--pattern` (`25mm`)", CAL_PAIRS, "chessboard:9x6:25mm"),
+        stereo("one left view of another size (800 x 600)", "cal_sizes",
+               prepare=_pairs("cal_sizes", change=_resized("0001/left.png", (800, 600)))),
+        stereo("a pair folder without its left.png", "cal_noleft",
+               prepare=_pairs("cal_noleft", change=lambda d: (d / "0002" / "left.png").unlink())),
+        _case("Calibrating", "board in no view (plain grey images), over an existing --out "
+              "file", "calibrate", "camera", "--images", "plain", "--plane",
+              "D/calibration/station/plane.png", "--pattern", CAL_PATTERN, "--out",
+              "cal_old.yaml", prepare=lambda w: (_plain_views(w), cal_keep_prepare(w)),
+              verify=lambda w: cal_keep_verify(w) or no_plots(w)),
+        stereo("`--out` inside a file (`cal_notes.txt/rig.yaml`)", CAL_PAIRS,
+               out="cal_notes.txt/rig.yaml",
+               prepare=_writes("cal_notes.txt", lambda w: b"not a folder\n"),
+               verify=lambda w: None if (w / "cal_notes.txt").read_bytes() == b"not a folder\n"
+               else "cal_notes.txt was changed"),
         # model files
         _case("Model files", "missing", "locate", "--model", "missing.npz"),
         _case("Model files", "not a zip (text)", "locate", "--model", "notes.npz",
@@ -542,7 +620,8 @@ def setup(work: Path, env: dict[str, str]) -> None:
     RuntimeError
         A command of the valid setup failed (its stderr).
     """
-    steps = [["simulate", "--out", "D", "--garments", "No.3", "--scenes", "1", "--seed", "1"],
+    steps = [["simulate", "--out", "D", "--garments", "No.3", "--scenes", "1", "--seed", "1",
+              "--calibration-views", "3"],
              ["build", "--photo", "D/models/No.3/photo.bmp", "--background",
               "D/models/No.3/background.bmp", "--camera", "D/model_camera.yaml", "--out",
               "shirt.npz", "--name", "shirt", "--no-preview"],
@@ -675,10 +754,13 @@ def render(outcomes: Sequence[Outcome]) -> str:
         "the input was read, perhaps with a warning line.",
         "",
         "The valid setup (in a temporary directory, shown as `DIR`): `photomodel simulate "
-        "--out D --garments No.3 --scenes 1 --seed 1` (its `stereo.yaml`, `model_camera.yaml` "
-        "as `camera.yaml`, the model photos `photo.bmp`, `background.bmp` and the scene's "
-        "`right.png`, `left.png` copied beside it), its model built into `shirt.npz` and added "
-        "to the library `lib`. In the commands,",
+        "--out D --garments No.3 --scenes 1 --seed 1 --calibration-views 3` (its "
+        "`stereo.yaml`, `model_camera.yaml` as `camera.yaml`, the model photos `photo.bmp`, "
+        "`background.bmp` and the scene's `right.png`, `left.png` copied beside it; "
+        f"`{CAL_PAIRS}` holds three views of a 9x6 chessboard, `{CAL_PATTERN}`, by each hand "
+        "camera, and the `cal_*` folders are copies of some of them, changed as the case "
+        "says), its model built into `shirt.npz` and added to the library `lib`. In the "
+        "commands,",
         "",
     ]
     for cmd, valid in VALID.items():

@@ -73,6 +73,11 @@ def _check_out(out: str) -> Path:
                                   "use .yaml, .xml or .json")
     if p.is_dir():
         raise InputError(p, "is a directory, not the calibration file to write")
+    for parent in p.parents:  # checked before the calibration runs, not after
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(parent, "is a file, not a folder to write --out in")
+            break
     return p
 
 
