@@ -31,6 +31,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
+from photomodel.service._threads import SearchThreads
 
 __all__ = ["create_app"]
 
@@ -338,10 +339,11 @@ def create_app(cell: CellService, *, warm: bool = True,
         async with limiter:
             metrics.in_flight.inc()
             try:
-                return await anyio.to_thread.run_sync(lambda: fn(*args, **kwargs),
-                                                      limiter=limiter_unbounded)
+                return await threads.run(lambda: fn(*args, **kwargs))
             finally:
                 metrics.in_flight.dec()
+
+    threads = SearchThreads()
 
     # the searches are bounded by ``limiter`` above; the thread pool itself must not be
     limiter_unbounded = anyio.CapacityLimiter(64)
@@ -437,7 +439,10 @@ def create_app(cell: CellService, *, warm: bool = True,
         if warm:
             threading.Thread(target=cell.warm, args=(progress,), name="photomodel-warm",
                              daemon=True).start()
-        yield
+        try:
+            yield
+        finally:
+            threads.close()
 
     routes = [
         Route("/", index),
