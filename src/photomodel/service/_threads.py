@@ -1,13 +1,14 @@
-"""The threads searches run on: one with all of numba's threads, the others with one each.
+"""The threads searches run on: one kept for the first search in flight, a short-lived one
+for each search that starts while it is busy.
 
 numba's OpenMP layer gives every thread that starts a parallel kernel its own team of worker
 threads, kept for the thread's life. Once the process holds more of them than there are
 cores, libgomp's workers stop spinning between parallel regions and sleep at once, and every
 region of a search pays for waking them: with one search running, a second team left idle
-made each search about 3 ms slower (16.5 -> 19.9 ms on 2 cores), a second thread kept to one
-numba thread did not. So the first search in flight runs on the primary thread (all of
-numba's threads, one team); searches that start while it is busy run on secondary threads
-with ``numba.set_num_threads(1)`` (no team), side by side with it.
+made each search about 3 ms slower (16.5 -> 19.9 ms on 2 cores). So the first search in
+flight runs on the primary thread (its team kept), and a search that starts while it is busy
+runs on a thread of its own that ends with it, taking its team along: after a burst of
+concurrent requests one team is left, as in a process that searches one pair at a time.
 """
 
 from __future__ import annotations
@@ -22,12 +23,6 @@ __all__ = ["SearchThreads"]
 T = TypeVar("T")
 
 
-def _one_numba_thread() -> None:
-    import numba
-
-    numba.set_num_threads(1)
-
-
 class SearchThreads:
     """Runs blocking calls (searches, registrations) off the event loop (module docstring).
 
@@ -37,18 +32,17 @@ class SearchThreads:
 
     def __init__(self) -> None:
         self._primary = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search")
-        self._secondary: ThreadPoolExecutor | None = None
         self._primary_busy = False
 
     async def run(self, call: Callable[[], T]) -> T:
         """``call()`` in a search thread; its result (or its exception)."""
         loop = asyncio.get_running_loop()
         if self._primary_busy:
-            if self._secondary is None:
-                self._secondary = ThreadPoolExecutor(
-                    64, thread_name_prefix="photomodel-search-1thread",
-                    initializer=_one_numba_thread)
-            return await loop.run_in_executor(self._secondary, call)
+            own = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search-extra")
+            try:
+                return await loop.run_in_executor(own, call)
+            finally:
+                own.shutdown(wait=False)  # the thread ends after the call, its team with it
         self._primary_busy = True
 
         def on_primary() -> Any:
@@ -64,7 +58,5 @@ class SearchThreads:
         self._primary_busy = False
 
     def close(self) -> None:
-        """Let the threads end once their calls are done."""
+        """Let the primary thread end once its call is done."""
         self._primary.shutdown(wait=False)
-        if self._secondary is not None:
-            self._secondary.shutdown(wait=False)
