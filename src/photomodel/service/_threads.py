@@ -1,5 +1,5 @@
-"""The threads searches run on: one kept for the first search in flight, a short-lived one
-for each search that starts while it is busy.
+"""The threads searches run on: one kept for the first search in flight, and extra threads for
+searches that start while it is busy, which end after a second without work.
 
 numba's OpenMP layer gives every thread that starts a parallel kernel its own team of worker
 threads, kept for the thread's life. Once the process holds more of them than there are
@@ -7,20 +7,67 @@ cores, libgomp's workers stop spinning between parallel regions and sleep at onc
 region of a search pays for waking them: with one search running, a second team left idle
 made each search about 3 ms slower (16.5 -> 19.9 ms on 2 cores). So the first search in
 flight runs on the primary thread (its team kept), and a search that starts while it is busy
-runs on a thread of its own that ends with it, taking its team along: after a burst of
-concurrent requests one team is left, as in a process that searches one pair at a time.
+runs on an extra thread; extra threads serve the rest of a burst and end (their teams with
+them) once idle for :data:`EXTRA_IDLE_S`, so that one team is left, as in a process that
+searches one pair at a time.
 """
 
 from __future__ import annotations
 
 import asyncio
+import queue
+import threading
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, TypeVar
 
-__all__ = ["SearchThreads"]
+__all__ = ["EXTRA_IDLE_S", "SearchThreads"]
 
 T = TypeVar("T")
+
+EXTRA_IDLE_S = 1.0
+"""Seconds an extra search thread waits for work before it ends."""
+
+
+class _ExtraThreads:
+    """Threads made on demand for calls that find every thread busy; each ends after
+    ``idle_s`` without a call."""
+
+    def __init__(self, idle_s: float) -> None:
+        self._idle_s = idle_s
+        self._jobs: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = (
+            queue.SimpleQueue())
+        self._lock = threading.Lock()
+        self._idle = 0  # threads waiting for a job and not yet promised one
+
+    def submit(self, call: Callable[[], T]) -> Future[T]:
+        future: Future[T] = Future()
+        with self._lock:
+            self._jobs.put((call, future))
+            if self._idle:
+                self._idle -= 1
+            else:
+                threading.Thread(target=self._work, name="photomodel-search-extra",
+                                 daemon=True).start()
+        return future
+
+    def _work(self) -> None:
+        while True:
+            try:
+                call, future = self._jobs.get(timeout=self._idle_s)
+            except queue.Empty:
+                with self._lock:
+                    if self._jobs.empty():
+                        self._idle -= 1
+                        return
+                continue
+            if future.set_running_or_notify_cancel():
+                try:
+                    future.set_result(call())
+                except BaseException as exc:  # noqa: BLE001 - handed to the caller
+                    future.set_exception(exc)
+            with self._lock:
+                self._idle += 1
 
 
 class SearchThreads:
@@ -33,16 +80,13 @@ class SearchThreads:
     def __init__(self) -> None:
         self._primary = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search")
         self._primary_busy = False
+        self._extra = _ExtraThreads(EXTRA_IDLE_S)
 
     async def run(self, call: Callable[[], T]) -> T:
         """``call()`` in a search thread; its result (or its exception)."""
         loop = asyncio.get_running_loop()
         if self._primary_busy:
-            own = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search-extra")
-            try:
-                return await loop.run_in_executor(own, call)
-            finally:
-                own.shutdown(wait=False)  # the thread ends after the call, its team with it
+            return await asyncio.wrap_future(self._extra.submit(call))
         self._primary_busy = True
 
         def on_primary() -> Any:
