@@ -65,7 +65,10 @@ def test_a_cancelled_request_frees_the_primary_thread_when_its_call_ends() -> No
             task.cancel()
             await asyncio.sleep(0.05)
             gate.set()
-            await asyncio.sleep(0.2)
+            for _ in range(200):  # the call ends and frees the primary thread
+                if not threads._primary_busy:
+                    break
+                await asyncio.sleep(0.025)
             name = (await threads.run(_where))[0]
             return name, "cancelled" if task.cancelled() else "ran"
         finally:
