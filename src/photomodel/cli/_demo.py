@@ -113,8 +113,7 @@ def _compare_pick(plan: dict[str, Any], facts: dict[str, Any], calibration_truth
     """Print the planned grasp (the model's origin in the base frame) beside the truth."""
     import numpy as np
 
-    from photomodel.robot import load_arm
-    from photomodel.robot._kinematics import forward_kinematics
+    from photomodel.robot import forward_kinematics, load_arm
 
     cal = json.loads(calibration_truth.read_text())
     q = np.radians(cal["photo_joints_deg"])
