@@ -7,21 +7,33 @@ import pytest
 from identify_helpers import IdentifyData
 
 from photomodel.fitness import StereoFeatures
-from photomodel.identify import IdentifyConfig, colour_evidence, identify, identify_in_features
+from photomodel.identify import (
+    DescriptorBank,
+    IdentifyConfig,
+    identify,
+    identify_in_features,
+    scene_regions,
+)
+from photomodel.model import describe_model
 from photomodel.locate import locate_in_features
 
 LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
                "fitness", "score", "seconds"}
 
 
-def test_colour_evidence_ranks_the_garment_on_the_table(identify_data: IdentifyData) -> None:
+def test_screening_ranks_the_garment_on_the_table(identify_data: IdentifyData) -> None:
     d = identify_data
-    ev = colour_evidence(list(d.models), StereoFeatures(d.rig, d.scene_right, d.scene_left))
-    assert ev.shape == (3,) and np.all((ev >= 0) & (ev <= 1))
     names = [m.name for m in d.models]
-    assert names[int(np.argmax(ev))] == "No.5"
-    empty = colour_evidence(list(d.models), StereoFeatures(d.rig, d.empty_right, d.empty_left))
-    assert np.all(empty < ev[names.index("No.5")])
+    bank = DescriptorBank(names, [describe_model(m) for m in d.models])
+    scene = scene_regions(StereoFeatures(d.rig, d.scene_right, d.scene_left))
+    assert len(scene.regions) >= 1
+    # the table's depth from stereo, along camera 1's axis, near the garment's
+    assert abs(scene.table_depth_mm - d.T_cam1_model[2, 3]) < 0.05 * d.T_cam1_model[2, 3]
+    ev = bank.evidence(scene)
+    assert ev.shape == (3,) and np.all((ev >= 0) & (ev <= 1))
+    assert names[int(np.argmax(ev))] == "No.5" and ev.max() > 0.7
+    empty = scene_regions(StereoFeatures(d.rig, d.empty_right, d.empty_left))
+    assert empty.regions == () and np.all(bank.evidence(empty) == 0)
 
 
 def test_identify_names_the_garment_with_locates_pose(identify_data: IdentifyData) -> None:
@@ -39,12 +51,14 @@ def test_identify_names_the_garment_with_locates_pose(identify_data: IdentifyDat
     assert LOCATE_KEYS <= set(doc) and doc["model"] == "No.5" and doc["found"] is True
     assert doc["runner_up"] == {"model": None, "score": None} and 0 <= doc["score"] <= 1
     every = identify(d.models, d.rig, d.scene_right, d.scene_left,
-                     config=IdentifyConfig(max_candidates=2, trusted_first=False), rng=3)
+                     config=IdentifyConfig(max_candidates=2, trusted_first=False,
+                                           candidate_margin=1.0, evidence_margin=1.0,
+                                           min_evidence=0.0), rng=3)
     assert every.model == "No.5" and every.score == pytest.approx(result.score)
     assert every.runner_up is not None and every.runner_up.model != "No.5"
     assert every.runner_up.score is not None and every.runner_up.score < every.score
     searched = [c for c in every.candidates if c.result is not None]
-    assert len(searched) == 2  # the third model was dropped by the colour screen
+    assert len(searched) == 2  # the third model was dropped by the screen (max_candidates)
     assert set(every.to_json_dict()["runner_up"]) == {"model", "score"}
 
 
@@ -105,10 +119,12 @@ def test_an_identifier_prepares_its_library_and_gives_identifys_answer(
         identifier = Identifier(ModelLibrary(library), d.rig,
                                 config=IdentifyConfig(max_candidates=2))
     assert [str(w.message).split(":")[0] for w in caught] == [str(library / "broken.npz")]
-    assert sorted(m.name for m in identifier.models) == sorted(m.name for m in d.models)
-    assert all(loc.prepared.kept for loc in identifier.locators)   # prepared when made
+    assert sorted(identifier.names) == sorted(m.name for m in d.models)
+    assert identifier.stats().prepared == 0      # opened from the index: nothing prepared
     result = identifier(d.scene_right, d.scene_left, rng=3)
     assert result.found and result.model == "No.5"
+    searched = {c.model for c in result.candidates if c.result is not None}
+    assert identifier.stats().prepared == len(searched)   # only the verified ones
     again = identify(d.models, d.rig, d.scene_right, d.scene_left,
                      config=IdentifyConfig(max_candidates=2, min_score=identifier.min_score),
                      rng=3)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from pathlib import Path
 
 from photomodel.errors import InputError
@@ -25,8 +26,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--min-score", type=float, default=None,
                    help="accept the best model from this score (default: the calibrated, "
                         "stored threshold)")
-    p.add_argument("--max-candidates", type=int, default=3,
-                   help="models searched after the colour screen (default 3)")
+    p.add_argument("--max-candidates", type=int, default=6,
+                   help="most models verified by a pose search after the screen (default 6; "
+                        "fewer are when the best is clearly ahead)")
     p.set_defaults(run=run)
 
 
@@ -45,17 +47,20 @@ def run(args: argparse.Namespace) -> int:
         config = IdentifyConfig(min_score=args.min_score, max_candidates=args.max_candidates)
     except ValueError as exc:
         raise InputError("--min-score/--max-candidates", str(exc)) from None
-    models, skipped = ModelLibrary(args.models).load()
-    warn_skipped(skipped)
-    if not models:
-        raise InputError(args.models, "the library holds no usable photo-model")
+    library = ModelLibrary(args.models)
     rig = load_stereo(args.stereo)
     right = read_color_image(args.right)
     left = read_color_image(args.left)
     rig.cam1.check_image(right, str(args.right))
     rig.cam2.check_image(left, str(args.left))
-    identifier = Identifier(models, rig, config=config,
-                            threshold=threshold_path(library=args.models))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        identifier = Identifier(library, rig, config=config,
+                                threshold=threshold_path(library=args.models))
+    warn_skipped([str(w.message) for w in caught])
+    if not len(identifier):
+        raise InputError(args.models, "the library holds no usable photo-model (it looked "
+                                      "for *.npz files written by photomodel build)")
     result = identifier(right, left, rng=args.seed)
     if args.json:
         print(json.dumps(result.to_json_dict()))
@@ -69,9 +74,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         best = "no model searched" if result.best is None else (
             f"best {result.best.model} at score {result.best.score:.3f}")
-        print(f"model       none of the {len(models)} models is on the table ({best}, "
+        print(f"model       none of the {len(identifier)} models is on the table ({best}, "
               f"threshold {result.min_score:.3f})")
     print(f"runner-up   {runner_text}")
     print(f"identify    {sum(c.result is not None for c in result.candidates)} of "
-          f"{len(models)} models searched, {result.seconds:.2f} s")
+          f"{len(identifier)} models searched, {result.seconds:.2f} s")
     return 0

@@ -42,7 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     show.set_defaults(run=run_show)
 
 
-def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped]) -> None:
+def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped] | list[str]) -> None:
     """One warning line on stderr per skipped file."""
     for s in skipped:
         print(f"photomodel: warning: {s}", file=sys.stderr)

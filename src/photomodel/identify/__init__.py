@@ -1,11 +1,13 @@
 """Identification: which photo-model of a library lies on the table, and its pose, or none.
 
-Colour evidence drops models whose colours the images lack (:mod:`._screen`), the rest are
+The garment-like regions of the pair (:mod:`._scene`) are compared with every model's
+descriptor (:mod:`._bank`: milliseconds for thousands of models), the best-screened are
 located with the default ``soft`` method in features computed once (:mod:`._identify`), and
 the best is accepted against the threshold calibrated on simulated scenes
 (:mod:`photomodel.locate._threshold`: the library's, the user's or the package's
 ``threshold.json``; ``photomodel experiment --identify --calibrate`` re-derives it).
-:class:`Identifier` holds a library prepared for one rig.
+:class:`Identifier` holds a library for one rig, its models prepared on first use
+(:class:`PreparedModels`).
 """
 
 import lazy_loader
@@ -21,32 +23,43 @@ from photomodel.locate._threshold import (
 __getattr__, _dir, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_identifier": ["Identifier"],
+        "_bank": ["BankConfig", "DescriptorBank"],
+        "_cache": ["CacheStats", "PreparedModels"],
+        "_identifier": ["DEFAULT_PREPARED_MODELS", "Identifier"],
         "_identify": [
             "Candidate",
             "IdentifyConfig",
             "IdentifyResult",
             "identify",
             "identify_in_features",
+            "identify_with_bank",
         ],
-        "_screen": ["ScreenConfig", "colour_evidence"],
+        "_scene": ["Region", "SceneConfig", "SceneRegions", "scene_regions"],
     },
 )
 
 __all__ = [
+    "DEFAULT_PREPARED_MODELS",
     "THRESHOLD_FILE",
+    "BankConfig",
+    "CacheStats",
     "Candidate",
+    "DescriptorBank",
     "IdentifyConfig",
     "Identifier",
     "IdentifyResult",
-    "ScreenConfig",
+    "PreparedModels",
+    "Region",
+    "SceneConfig",
+    "SceneRegions",
     "Threshold",
     "calibrate_threshold",
-    "colour_evidence",
     "identify",
     "identify_in_features",
+    "identify_with_bank",
     "load_threshold",
     "save_threshold",
+    "scene_regions",
 ]
 
 

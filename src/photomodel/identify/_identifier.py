@@ -1,11 +1,11 @@
-"""``Identifier``: a model library prepared for one rig, then called once per stereo pair."""
+"""``Identifier``: a model library screened and verified for one rig, called once per pair."""
 
 from __future__ import annotations
 
 import os
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -13,27 +13,40 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness import PreparedModel, StereoFeatures
-from photomodel.identify._identify import IdentifyConfig, IdentifyResult, identify_in_features
-from photomodel.library import ModelLibrary
+from photomodel.identify._bank import DescriptorBank
+from photomodel.identify._cache import CacheStats, PreparedModels
+from photomodel.identify._identify import (
+    IdentifyConfig,
+    IdentifyResult,
+    identify_with_bank,
+    model_descriptor,
+)
+from photomodel.library import LibraryEntry, ModelLibrary
 from photomodel.locate import Locator, load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import SearchSpace
 
-__all__ = ["Identifier"]
+__all__ = ["DEFAULT_PREPARED_MODELS", "Identifier"]
+
+DEFAULT_PREPARED_MODELS = 64
+"""Models an :class:`Identifier` of a library keeps prepared (a few MB each)."""
 
 
 class Identifier:
     """Which model of a library lies on the table, and its pose, or none.
 
-    Made once per library and rig: it loads the library's models (files that do not load are
-    skipped with one warning each), prepares each for the rig, and reads the threshold; each
-    call then pays for the screening and the searches only.
+    Made once per library and rig: it reads the library's index (every model's descriptor;
+    no model file is opened, an index without descriptors is upgraded first) and the
+    threshold. Each call screens the whole library against the stereo pair and verifies the
+    best-screened models by a pose search; a model is loaded and prepared for the rig the
+    first time it is verified, and at most ``prepared_models`` are kept prepared (least
+    recently used dropped).
 
     Parameters
     ----------
     library : ModelLibrary or sequence of PhotoModel or Locator
-        A :class:`~photomodel.Locator` given is used as it is (it must be for ``rig``): a
-        service that adds one model makes a new Identifier without preparing the others.
+        A directory library (opened from its index), or models in memory. A
+        :class:`~photomodel.Locator` given is used as it is (it must be for ``rig``).
     rig : StereoRig
     space : SearchSpace, optional
         The pose search box of every model (default as :class:`~photomodel.Locator`).
@@ -42,44 +55,92 @@ class Identifier:
     threshold : path, optional
         Threshold file (default: the library folder's ``threshold.json`` when it has one,
         else :func:`~photomodel.locate.threshold_path`'s).
+    prepared_models : int, optional
+        Most models kept prepared (default: :data:`DEFAULT_PREPARED_MODELS` for a directory
+        library, every model for models in memory).
+    prepare : callable(Locator) -> None, optional
+        Extra work on each newly prepared Locator.
     """
 
     def __init__(self, library: ModelLibrary | Sequence[PhotoModel | Locator], rig: StereoRig,
                  space: SearchSpace | None = None, *, config: IdentifyConfig | None = None,
-                 threshold: str | os.PathLike[str] | None = None) -> None:
-        root = None
-        if isinstance(library, ModelLibrary):
-            root = library.root
-            models, skipped = library.load()
-            for s in skipped:
-                warnings.warn(str(s), stacklevel=2)
-        else:
-            models = list(library)
+                 threshold: str | os.PathLike[str] | None = None,
+                 prepared_models: int | None = None,
+                 prepare: Callable[[Locator], None] | None = None) -> None:
         config = config or IdentifyConfig()
+        root = library.root if isinstance(library, ModelLibrary) else None
         if config.min_score is None:
             config = replace(config, min_score=load_threshold(threshold,
                                                               library=root).min_score)
         self.config = config
         self.rig = rig
-        for m in models:
-            if isinstance(m, Locator) and m.rig is not rig:
-                raise ValueError(f"library: the Locator of {m.model.name!r} is for another rig")
-        self.locators = [m if isinstance(m, Locator)
-                         else Locator(m, rig, space, min_score=config.min_score)
-                         for m in models]
-        self.space = self.locators[0].space if self.locators else (
-            space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing))
+        self.space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
+        given: list[Locator] = []
+        if isinstance(library, ModelLibrary):
+            scan = library.described()
+            for s in scan.skipped:
+                warnings.warn(str(s), stacklevel=2)
+            entries = {e.name: e for e in scan.entries}
+            self.library: ModelLibrary | None = library
+            names = list(entries)
+            descriptors = [e.descriptor for e in entries.values()]
+            load: Callable[[str], PhotoModel] = self._loader(library, entries)
+            capacity = prepared_models or DEFAULT_PREPARED_MODELS
+        else:
+            self.library = None
+            models: dict[str, PhotoModel] = {}
+            for m in library:
+                if isinstance(m, Locator):
+                    if m.rig is not rig:
+                        raise ValueError(f"library: the Locator of {m.model.name!r} is for "
+                                         "another rig")
+                    given.append(m)
+                    models.setdefault(m.model.name, m.model)
+                else:
+                    models.setdefault(m.name, m)
+            names = list(models)
+            described = {loc.model.name: model_descriptor(loc.prepared) for loc in given}
+            descriptors = [described.get(n) or model_descriptor(PreparedModel(models[n]))
+                           for n in names]
+            load = models.__getitem__
+            capacity = prepared_models or max(1, len(names))
+        if given:
+            self.space = given[0].space
+        assert all(d is not None for d in descriptors)   # described() described them all
+        self.bank = DescriptorBank(names, descriptors)  # type: ignore[arg-type]
+        self.prepared = PreparedModels(load, rig, capacity, space=self.space,
+                                       min_score=config.min_score, prepare=prepare)
+        for loc in given:
+            self.prepared.put(loc)
+
+    @staticmethod
+    def _loader(library: ModelLibrary, entries: dict[str, LibraryEntry]
+                ) -> Callable[[str], PhotoModel]:
+        def load(name: str) -> PhotoModel:
+            return library.load_entry(entries[name])
+        return load
 
     @property
-    def models(self) -> list[PhotoModel]:
-        """The library's models, in library order."""
-        return [loc.model for loc in self.locators]
+    def names(self) -> tuple[str, ...]:
+        """The library's model names, in library order."""
+        return self.bank.names
 
     @property
     def min_score(self) -> float:
         """The threshold applied."""
         assert self.config.min_score is not None
         return self.config.min_score
+
+    def locator(self, name: str) -> Locator:
+        """The prepared :class:`~photomodel.Locator` of model ``name`` (prepared now when it
+        is not held)."""
+        if name not in self.bank.names:
+            raise KeyError(name)
+        return self.prepared.get(name)
+
+    def stats(self) -> CacheStats:
+        """How many models are prepared, of how many at most, and the cache's counts."""
+        return self.prepared.stats()
 
     def __call__(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
                  rng: int | np.random.Generator | None = None) -> IdentifyResult:
@@ -92,12 +153,15 @@ class Identifier:
                           rng: int | np.random.Generator | None = None, *,
                           t0: float | None = None) -> IdentifyResult:
         """:meth:`__call__` on a stereo pair already turned into features."""
-        prepared: list[PreparedModel] = [loc.prepared for loc in self.locators]
-        return identify_in_features(prepared, features, config=self.config, space=self.space,
-                                    rng=rng, t0=t0)
+        def prepared(i: int) -> PreparedModel:
+            return self.prepared.get(self.bank.names[i]).prepared
+
+        return identify_with_bank(self.bank, prepared, features, config=self.config,
+                                  space=self.space, rng=rng, t0=t0)
 
     def __len__(self) -> int:
-        return len(self.locators)
+        return len(self.bank)
 
     def __repr__(self) -> str:
-        return f"Identifier({len(self)} models, min_score={self.min_score:.3f})"
+        return (f"Identifier({len(self)} models, {len(self.prepared)} prepared, "
+                f"min_score={self.min_score:.3f})")

@@ -1,30 +1,29 @@
 """``identify``: which model of a library lies on the table, and where, or none.
 
-For one stereo pair and a list of photo-models:
+For one stereo pair and a library of any size:
 
 1. **Shared work, once**: the images' log-opponent feature pyramids
-   (:class:`~photomodel.fitness.StereoFeatures`), used by every model and stage.
-2. **Drop early** (:func:`~photomodel.identify.colour_evidence`): models whose colours the
-   images lack cannot be the answer; the ``max_candidates`` models with the most colour
-   evidence (at least ``min_evidence``) go on. This costs milliseconds per model, far less
-   than a pose search.
-3. **Locate each candidate** (those whose scan is trusted first; the others only while none
-   of those is found: ``trusted_first``) with the default ``soft`` method
-   (:func:`~photomodel.locate.locate_in_features`: a correlation scan of flat poses on the
-   coarsest level, then local refinement of its peaks down to level 0), each with its own
-   seed derived from the call's seed, the model's name and the attempt (a model's search does
-   not depend on which others are in the library).
+   (:class:`~photomodel.fitness.StereoFeatures`), used by every model and stage, and the
+   garment-like regions beside the table with the table's stereo depth
+   (:func:`~photomodel.identify.scene_regions`).
+2. **Screening** (:class:`~photomodel.identify.DescriptorBank`): every model's descriptor,
+   stored in the library's index, is scored against the regions (colours at the light the
+   region suggests, area, shape): milliseconds for thousands of models, no model file read.
+3. **Verifying**: the best-screened models are located with the default ``soft`` method
+   (:func:`~photomodel.locate.locate_in_features`), best first, each with its own seed derived
+   from the call's seed, the model's name and the attempt. How many adapts to the evidence:
+   those within ``candidate_margin`` of the best screening evidence (at least
+   ``min_evidence``), at most ``max_candidates``; once one is found, only those that the
+   screen could not tell from it (within ``evidence_margin`` of its evidence) and whose scan
+   is trusted (``trusted_first``) are still located. A model is loaded and prepared only when
+   it is verified (:class:`~photomodel.identify.PreparedModels` keeps the recent ones).
 4. **Decide**: the candidate with the highest score is the answer when its score reaches
    ``min_score``, the threshold calibrated on simulated scenes and stored with the package
    (:func:`~photomodel.identify.load_threshold`); otherwise none of the models is on the
    table. The runner-up is the next best located candidate.
-5. **Second look**: when no candidate reaches ``min_score``, the candidates are searched
-   again with fresh seeds (``retries`` times), each keeping its better result, with
-   ``locate``'s retry configuration (GA beside the same scan peaks, more restarts; the scan
-   is computed once per candidate). The scan sees the garment as lit at the model station
-   and misses it now and then under other light; a scene with a library garment then scores
-   low once, not twice, while a scene without one costs the extra searches and stays below
-   the threshold.
+5. **Second look**: when no candidate reaches ``min_score``, the first ``retry_candidates``
+   are searched again with fresh seeds (``retries`` times) with ``locate``'s retry
+   configuration; each keeps its better result.
 
 The score is ``locate``'s (:func:`~photomodel.fitness.score_terms`), in [0, 1]: the mean of
 the ``soft`` fitness at level 0 (about the share of the model's points that agree with both
@@ -37,7 +36,7 @@ from __future__ import annotations
 
 import time
 import zlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -52,13 +51,16 @@ from photomodel.fitness import (
     as_prepared,
     scan_flat_poses,
 )
-from photomodel.identify._screen import ScreenConfig, colour_evidence
+from photomodel.identify._bank import BankConfig, DescriptorBank
+from photomodel.identify._scene import SceneConfig, scene_regions
 from photomodel.locate import LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
+from photomodel.model._descriptor import ModelDescriptor, describe_model
 from photomodel.search import SearchSpace
 
-__all__ = ["Candidate", "IdentifyConfig", "IdentifyResult", "identify", "identify_in_features"]
+__all__ = ["Candidate", "IdentifyConfig", "IdentifyResult", "identify", "identify_in_features",
+           "identify_with_bank", "model_descriptor"]
 
 
 @dataclass(frozen=True)
@@ -71,29 +73,41 @@ class IdentifyConfig:
         Score from which the best model counts as found; None: the stored, calibrated
         threshold (:func:`~photomodel.identify.load_threshold`).
     max_candidates : int
-        Most models that go on to the pose search (by colour evidence).
+        Most models verified by a pose search.
     min_evidence : float
-        Colour evidence below which a model is dropped without a search.
+        Screening evidence below which a model is never verified.
+    candidate_margin : float
+        Models whose evidence is more than this below the best model's are not verified.
+    evidence_margin : float
+        Once a model is found, further models are verified only within this of its evidence
+        (look-alikes the screen cannot tell apart).
     retries : int
-        Further searches of the candidates, with fresh seeds, while none reaches
-        ``min_score``.
-    screen : ScreenConfig
-        Settings of the colour evidence.
+        Further searches with fresh seeds while none reaches ``min_score``.
+    retry_candidates : int
+        Models searched again in a second look (the best-screened).
+    bank : BankConfig
+        Settings of the screening scores.
+    scene : SceneConfig
+        Settings of the scene's regions.
     trusted_first : bool
-        Search the candidates whose scan is trusted (its best peak reaches
-        ``ScanConfig.trusted_score``) first, and the others only while none of those reaches
-        ``min_score``. An untrusted scan means the model's own colours agree nowhere in the
-        images, and its search then runs the slower GA; under the station's light
-        that is a model that is not there. Under another lamp every scan is untrusted and
-        every candidate is searched, as without this.
+        Once a model is found, skip further candidates whose scan is not trusted (their
+        colours agree nowhere in the images); under another lamp every scan is untrusted and
+        the look-alikes are still searched.
+    shown_candidates : int
+        Best-screened models listed in the answer's ``candidates`` beside those searched.
     """
 
     min_score: float | None = None
-    max_candidates: int = 3
+    max_candidates: int = 6
     min_evidence: float = 0.2
+    candidate_margin: float = 0.35
+    evidence_margin: float = 0.15
     retries: int = 1
-    screen: ScreenConfig = field(default_factory=ScreenConfig)
+    retry_candidates: int = 3
+    bank: BankConfig = field(default_factory=BankConfig)
+    scene: SceneConfig = field(default_factory=SceneConfig)
     trusted_first: bool = True
+    shown_candidates: int = 10
 
     def __post_init__(self) -> None:
         if self.min_score is not None and not 0.0 <= self.min_score <= 1.0:
@@ -102,8 +116,14 @@ class IdentifyConfig:
             raise ValueError(f"max_candidates: expected >= 1, got {self.max_candidates}")
         if not 0.0 <= self.min_evidence <= 1.0:
             raise ValueError(f"min_evidence: expected [0, 1], got {self.min_evidence}")
-        if self.retries < 0:
-            raise ValueError(f"retries: expected >= 0, got {self.retries}")
+        if self.candidate_margin < 0 or self.evidence_margin < 0:
+            raise ValueError("candidate_margin, evidence_margin: expected >= 0, got "
+                             f"{self.candidate_margin}, {self.evidence_margin}")
+        if self.retries < 0 or self.retry_candidates < 1:
+            raise ValueError(f"retries: expected >= 0 and retry_candidates >= 1, got "
+                             f"{self.retries}, {self.retry_candidates}")
+        if self.shown_candidates < 0:
+            raise ValueError(f"shown_candidates: expected >= 0, got {self.shown_candidates}")
 
 
 @dataclass(frozen=True)
@@ -114,7 +134,7 @@ class Candidate:
     ----------
     model : str
     evidence : float
-        Colour evidence in [0, 1].
+        Screening evidence in [0, 1].
     result : LocateResult or None
         Its pose search, or None when it was dropped before one.
     """
@@ -145,7 +165,8 @@ class IdentifyResult:
     runner_up : Candidate or None
         The next best located candidate.
     candidates : tuple of Candidate
-        Every model, by decreasing colour evidence.
+        The models searched and the next best-screened (``shown_candidates``), by
+        decreasing screening evidence.
     seconds : float
         Wall time of the whole identification (features included).
     """
@@ -174,7 +195,7 @@ class IdentifyResult:
         ``"model": null``, ``"found": false`` and the pose fields null, with ``score`` (and
         ``best_candidate``) telling how close the best one came. Plus ``runner_up``
         (``{"model", "score"}``, both null without one), ``min_score`` and ``candidates``
-        (each model's colour evidence and score, null when not searched).
+        (the best-screened models' evidence and score, null when not searched).
         """
         if self.best is not None and self.found:
             out = self.best.to_json_dict()
@@ -197,6 +218,11 @@ def _model_rng(base: int, name: str, attempt: int) -> np.random.Generator:
     return np.random.default_rng([base, zlib.crc32(name.encode("utf-8")), attempt])
 
 
+def model_descriptor(model: PreparedModel) -> ModelDescriptor:
+    """The descriptor of a prepared model, computed once and kept with it."""
+    return model.kept.get("descriptor", lambda: describe_model(model.model))
+
+
 def identify_in_features(
     models: Sequence[PhotoModel | PreparedModel],
     features: StereoFeatures,
@@ -212,7 +238,7 @@ def identify_in_features(
     ----------
     models : sequence of PhotoModel or PreparedModel
         The library (names should be unique; the first of equal names wins ties); prepared
-        models keep what their searches build (:class:`~photomodel.Identifier`).
+        models keep what their searches build, their descriptor included.
     features : StereoFeatures
     config : IdentifyConfig, optional
     space : SearchSpace, optional
@@ -227,45 +253,74 @@ def identify_in_features(
     -------
     IdentifyResult
     """
+    prepared = [as_prepared(m) for m in models]
+    bank = DescriptorBank([m.name for m in prepared], [model_descriptor(m) for m in prepared])
+    return identify_with_bank(bank, prepared.__getitem__, features, config=config, space=space,
+                              rng=rng, t0=t0)
+
+
+def identify_with_bank(
+    bank: DescriptorBank,
+    prepared: Callable[[int], PreparedModel],
+    features: StereoFeatures,
+    *,
+    config: IdentifyConfig | None = None,
+    space: SearchSpace | None = None,
+    rng: int | np.random.Generator | None = None,
+    t0: float | None = None,
+) -> IdentifyResult:
+    """:func:`identify_in_features` with the library's descriptors already in a bank, each
+    model prepared only when it is verified: ``prepared(i)`` gives bank entry ``i``'s model
+    (:class:`~photomodel.Identifier` loads it from the library then)."""
     t0 = time.perf_counter() if t0 is None else t0
-    models = [as_prepared(m) for m in models]
     c = config or IdentifyConfig()
     min_score = load_threshold().min_score if c.min_score is None else c.min_score
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     base = int(np.random.default_rng(rng).integers(0, 2**62))
-    evidence: NDArray[np.float64] = colour_evidence(models, features, c.screen)
+    regions = scene_regions(features, (float(space.lower[2]), float(space.upper[2])), c.scene)
+    evidence: NDArray[np.float64] = bank.evidence(regions, c.bank)
     order = np.argsort(-evidence, kind="stable")
-    chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= c.min_evidence]
+    top = float(evidence[order[0]]) if len(order) else 0.0
+    floor = max(c.min_evidence, top - c.candidate_margin)
+    chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= floor]
     located: dict[int, LocateResult] = {}
     scans: dict[int, ScanResult] = {}
+    models: dict[int, PreparedModel] = {}
 
-    def one_found() -> bool:
-        return bool(located) and max(r.score for r in located.values()) >= min_score
+    def found() -> int | None:
+        best = max(located, key=lambda i: located[i].score, default=None)
+        return best if best is not None and located[best].score >= min_score else None
 
     for attempt in range(1 + c.retries):
-        if one_found():
+        if found() is not None:
             break
-        for i in chosen:
+        for i in chosen if attempt == 0 else chosen[: c.retry_candidates]:
+            hit = found()
+            if hit is not None and evidence[i] < evidence[hit] - c.evidence_margin:
+                break     # the rest look less like the scene than the one found
+            if i not in models:
+                models[i] = prepared(i)
             if i not in scans:
                 scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
-        order_now = sorted(chosen, key=lambda i: not (c.trusted_first and scans[i].trusted))
-        for i in order_now:
-            if c.trusted_first and not scans[i].trusted and one_found():
-                break    # a trusted candidate is found; the rest's colours agree nowhere
+            if c.trusted_first and hit is not None and not scans[i].trusted:
+                continue  # a model is found; this one's colours agree nowhere
             r = locate_in_features(models[i], features, space=space,
-                                   rng=_model_rng(base, models[i].name, attempt),
+                                   rng=_model_rng(base, bank.names[i], attempt),
                                    min_score=min_score, t0=time.perf_counter(), retries=0,
                                    scan=scans[i], second_look=attempt > 0)
             if i not in located or r.score > located[i].score:
                 located[i] = r
-    candidates = tuple(Candidate(models[int(i)].name, float(evidence[i]), located.get(int(i)))
-                       for i in order)
+    shown = [int(i) for i in order if int(i) in located]
+    shown += [int(i) for i in order[: len(chosen) + c.shown_candidates] if int(i) not in located]
+    shown.sort(key=lambda i: -evidence[i])
+    candidates = tuple(Candidate(bank.names[i], float(evidence[i]), located.get(i))
+                       for i in shown)
     ranked = sorted((c_ for c_ in candidates if c_.result is not None),
                     key=lambda c_: -float(c_.result.score))  # type: ignore[union-attr]
     best = ranked[0].result if ranked else None
     runner_up = ranked[1] if len(ranked) > 1 else None
-    found = best is not None and best.score >= min_score
-    return IdentifyResult(best, bool(found), float(min_score), runner_up, candidates,
+    is_found = best is not None and best.score >= min_score
+    return IdentifyResult(best, bool(is_found), float(min_score), runner_up, candidates,
                           time.perf_counter() - t0)
 
 

@@ -6,10 +6,12 @@ Layout::
     DIR/index.json     {"format": "photomodel-library", "version": 1,
                         "models": {"<name>": {"file", "size_mm", "area_mm2", "colours",
                                               "n_in", "n_out", "created_utc", "added_utc",
-                                              "file_bytes", "file_mtime_ns"}}}
+                                              "file_bytes", "file_mtime_ns", "descriptor"}}}
 
 The model files are the truth; the index caches what listing needs (name, size, main colours,
-dates) so that ``models list`` does not open every file. :meth:`ModelLibrary.scan` reconciles
+dates) and each model's descriptor (:class:`~photomodel.model.ModelDescriptor`, what
+identification screens a catalogue with), so that neither ``models list`` nor ``identify``
+opens every file. :meth:`ModelLibrary.scan` reconciles
 the two: an indexed file that is unchanged (same byte count and modification time) is taken
 from the index, any other ``.npz`` file is opened, and a file that is not a readable
 photo-model (corrupt, foreign, of a newer format), a model whose name another file already
@@ -21,6 +23,9 @@ by a read, and each of them reads, changes and writes the index holding an exclu
 ``DIR/.index.lock`` (``fcntl.flock``; released by the kernel when the process dies), so that
 concurrent writers (several ``photomodel models add``, the service) never lose each other's
 entries. Readers need no lock: they see the old index or the new one, never a torn one.
+An index written before descriptors existed (or holding one that does not parse, which is
+noted) is upgraded by :meth:`ModelLibrary.described`: the missing descriptors are computed from
+the model files and the index rewritten under the lock, every other entry kept as it was.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ import json
 import os
 import time
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +45,7 @@ from numpy.typing import NDArray
 
 from photomodel.errors import InputError
 from photomodel.model import PhotoModel, load_model, save_model
+from photomodel.model._descriptor import ModelDescriptor, describe_model
 
 __all__ = [
     "INDEX_NAME",
@@ -87,6 +93,9 @@ class LibraryEntry:
         When it entered the library (ISO 8601).
     file_bytes, file_mtime_ns : int
         Size and modification time of the file when it was indexed.
+    descriptor : ModelDescriptor or None
+        What identification screens with; None until described (an index of an older
+        photomodel, or an unreadable descriptor).
     """
 
     name: str
@@ -100,18 +109,25 @@ class LibraryEntry:
     added_utc: str
     file_bytes: int
     file_mtime_ns: int
+    descriptor: ModelDescriptor | None = None
 
     def to_json_dict(self) -> dict[str, Any]:
         """The entry as stored in ``index.json`` (without its name, which is the key)."""
-        d = asdict(self)
-        d.pop("name")
-        d["size_mm"] = list(self.size_mm)
-        d["colours"] = [list(c) for c in self.colours]
+        d: dict[str, Any] = {
+            "file": self.file, "size_mm": list(self.size_mm), "area_mm2": self.area_mm2,
+            "colours": [list(c) for c in self.colours], "n_in": self.n_in, "n_out": self.n_out,
+            "created_utc": self.created_utc, "added_utc": self.added_utc,
+            "file_bytes": self.file_bytes, "file_mtime_ns": self.file_mtime_ns}
+        if self.descriptor is not None:
+            d["descriptor"] = self.descriptor.to_json_dict()
         return d
 
     @classmethod
     def from_json_dict(cls, name: str, d: dict[str, Any]) -> LibraryEntry:
-        """Inverse of :meth:`to_json_dict`; ValueError/KeyError/TypeError when malformed."""
+        """Inverse of :meth:`to_json_dict`; ValueError/KeyError/TypeError when malformed
+        (a malformed ``descriptor`` too: :meth:`ModelLibrary.scan` reads the entry without
+        it and notes why)."""
+        descriptor = d.get("descriptor")
         return cls(
             name=str(name), file=str(d["file"]),
             size_mm=(float(d["size_mm"][0]), float(d["size_mm"][1])),
@@ -119,7 +135,8 @@ class LibraryEntry:
             colours=tuple((str(c[0]), float(c[1])) for c in d["colours"]),
             n_in=int(d["n_in"]), n_out=int(d["n_out"]), created_utc=str(d["created_utc"]),
             added_utc=str(d["added_utc"]), file_bytes=int(d["file_bytes"]),
-            file_mtime_ns=int(d["file_mtime_ns"]))
+            file_mtime_ns=int(d["file_mtime_ns"]),
+            descriptor=None if descriptor is None else ModelDescriptor.from_json_dict(descriptor))
 
 
 @dataclass(frozen=True)
@@ -291,11 +308,20 @@ class ModelLibrary:
             if int(data.get("version", -1)) > LIBRARY_FORMAT_VERSION:
                 raise ValueError(f"index version {data.get('version')} is newer than this "
                                  f"photomodel reads ({LIBRARY_FORMAT_VERSION})")
-            entries = {}
+            entries, notes = {}, []
             for name, d in dict(data.get("models", {})).items():
                 if _name_problem(name) is None:   # otherwise its file is read (and skipped)
-                    entries[str(name)] = LibraryEntry.from_json_dict(name, d)
-            return entries, []
+                    try:
+                        entries[str(name)] = LibraryEntry.from_json_dict(name, d)
+                    except ValueError as exc:
+                        if "descriptor" not in str(exc) or not isinstance(d, dict):
+                            raise
+                        entries[str(name)] = LibraryEntry.from_json_dict(
+                            name, {**d, "descriptor": None})
+                        notes.append(Skipped(path, f"descriptor of {_printable(name)!r} "
+                                                   f"ignored ({str(exc)[:160]}); it is "
+                                                   "described again from its file"))
+            return entries, notes
         except Exception as exc:  # noqa: BLE001 - whatever is wrong with it, the files decide
             return {}, [Skipped(path, f"index ignored, models read from their files "
                                       f"({type(exc).__name__}: {str(exc)[:200]})")]
@@ -322,7 +348,8 @@ class ModelLibrary:
             name=model.name, file=path.name, size_mm=model.size_mm, area_mm2=model.area_mm2,
             colours=main_colours(model), n_in=model.n_in, n_out=model.n_out,
             created_utc=str(model.meta.get("created_utc", "")), added_utc=added_utc,
-            file_bytes=int(st.st_size), file_mtime_ns=int(st.st_mtime_ns))
+            file_bytes=int(st.st_size), file_mtime_ns=int(st.st_mtime_ns),
+            descriptor=describe_model(model))
 
     def scan(self) -> LibraryScan:
         """The usable models and the skipped files (reads only what the index cannot vouch for).
@@ -362,6 +389,49 @@ class ModelLibrary:
                                        "missing"))
         return LibraryScan(tuple(entries[n] for n in sorted(entries)), tuple(skipped))
 
+    def described(self) -> LibraryScan:
+        """:meth:`scan`, every entry with its descriptor.
+
+        Entries the index holds without one (an index of an older photomodel, an unreadable
+        descriptor) are described from their files, and the index is rewritten with them
+        under the lock, every other entry as it was; a library that cannot be written (read
+        only) is described in memory only, with a note. A file that no longer loads is
+        skipped with a note.
+        """
+        scan = self.scan()
+        if all(e.descriptor is not None for e in scan.entries):
+            return scan
+        try:
+            with self._locked():
+                scan = self.scan()
+                entries, skipped = self._describe(scan)
+                try:
+                    self._write_index({e.name: e for e in entries})
+                except OSError as exc:
+                    skipped.append(Skipped(self.index_path, "cannot be upgraded with "
+                                           f"descriptors ({exc.strerror or exc}); described "
+                                           "in memory"))
+        except InputError as exc:      # no lock: a read-only library
+            entries, skipped = self._describe(scan)
+            skipped.append(Skipped(self.index_path, f"not upgraded with descriptors "
+                                                    f"({exc.problem}); described in memory"))
+        return LibraryScan(tuple(entries), tuple(skipped))
+
+    def _describe(self, scan: LibraryScan) -> tuple[list[LibraryEntry], list[Skipped]]:
+        """The scan's entries, each with a descriptor (computed from its file where missing),
+        and the notes (files that no longer load are left out)."""
+        entries, skipped = [], list(scan.skipped)
+        for e in scan.entries:
+            if e.descriptor is None:
+                path = self.root / e.file
+                try:
+                    e = replace(e, descriptor=describe_model(_load_one(path)))
+                except Exception as exc:  # noqa: BLE001 - one bad file must not sink the library
+                    skipped.append(Skipped(path, _why(exc)))
+                    continue
+            entries.append(e)
+        return entries, skipped
+
     def load(self, names: list[str] | None = None) -> tuple[list[PhotoModel], list[Skipped]]:
         """Load the library's models (all, or those named), with the files skipped.
 
@@ -386,6 +456,24 @@ class ModelLibrary:
             except Exception as exc:  # noqa: BLE001 - one bad file must not sink the library
                 skipped.append(Skipped(path, _why(exc)))
         return models, skipped
+
+    def load_entry(self, entry: LibraryEntry) -> PhotoModel:
+        """The model of one entry (of :meth:`scan` or :meth:`described`), read from its file.
+
+        Raises
+        ------
+        InputError
+            The file is gone or no longer a readable photo-model of that name.
+        """
+        path = self.root / entry.file
+        try:
+            model = _load_one(path)
+        except Exception as exc:  # noqa: BLE001 - said in one line, whatever it is
+            raise InputError(path, _why(exc)) from None
+        if model.name != entry.name:
+            raise InputError(path, f"holds model {model.name!r}, not {entry.name!r} (the "
+                                   "library changed: reopen it)")
+        return model
 
     def entry(self, name: str) -> LibraryEntry:
         """The entry of model ``name``; InputError when there is none."""
