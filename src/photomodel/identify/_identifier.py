@@ -76,15 +76,13 @@ class Identifier:
         self.rig = rig
         self.space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
         given: list[Locator] = []
+        self.entries: dict[str, LibraryEntry] = {}
         if isinstance(library, ModelLibrary):
-            scan = library.described()
-            for s in scan.skipped:
-                warnings.warn(str(s), stacklevel=2)
-            entries = {e.name: e for e in scan.entries}
             self.library: ModelLibrary | None = library
-            names = list(entries)
-            descriptors = [e.descriptor for e in entries.values()]
-            load: Callable[[str], PhotoModel] = self._loader(library, entries)
+            self.entries = self._read(library)
+            names = list(self.entries)
+            descriptors = [e.descriptor for e in self.entries.values()]
+            load: Callable[[str], PhotoModel] = self._load_entry
             capacity = prepared_models or DEFAULT_PREPARED_MODELS
         else:
             self.library = None
@@ -114,11 +112,32 @@ class Identifier:
             self.prepared.put(loc)
 
     @staticmethod
-    def _loader(library: ModelLibrary, entries: dict[str, LibraryEntry]
-                ) -> Callable[[str], PhotoModel]:
-        def load(name: str) -> PhotoModel:
-            return library.load_entry(entries[name])
-        return load
+    def _read(library: ModelLibrary) -> dict[str, LibraryEntry]:
+        """The library's described entries by name; one warning per skipped file."""
+        scan = library.described()
+        for s in scan.skipped:
+            warnings.warn(str(s), stacklevel=3)
+        return {e.name: e for e in scan.entries}
+
+    def _load_entry(self, name: str) -> PhotoModel:
+        assert self.library is not None
+        return self.library.load_entry(self.entries[name])
+
+    def reload(self) -> None:
+        """Read the library's index again (after a model was added, replaced or removed):
+        the screen sees the library as it is now; prepared models whose file changed or
+        went are dropped, the others kept."""
+        if self.library is None:
+            raise ValueError("reload: this Identifier holds models in memory, not a library")
+        entries = self._read(self.library)
+        for name, old in self.entries.items():
+            new = entries.get(name)
+            if new is None or (new.file, new.file_bytes, new.file_mtime_ns) != (
+                    old.file, old.file_bytes, old.file_mtime_ns):
+                self.prepared.drop(name)
+        self.entries = entries
+        self.bank = DescriptorBank(list(entries), [e.descriptor for e in entries.values()
+                                                   if e.descriptor is not None])
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -153,10 +172,12 @@ class Identifier:
                           rng: int | np.random.Generator | None = None, *,
                           t0: float | None = None) -> IdentifyResult:
         """:meth:`__call__` on a stereo pair already turned into features."""
-        def prepared(i: int) -> PreparedModel:
-            return self.prepared.get(self.bank.names[i]).prepared
+        bank = self.bank      # one library state for the whole call (reload swaps it)
 
-        return identify_with_bank(self.bank, prepared, features, config=self.config,
+        def prepared(i: int) -> PreparedModel:
+            return self.prepared.get(bank.names[i]).prepared
+
+        return identify_with_bank(bank, prepared, features, config=self.config,
                                   space=self.space, rng=rng, t0=t0)
 
     def __len__(self) -> int:
