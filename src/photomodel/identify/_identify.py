@@ -13,10 +13,12 @@ For one stereo pair and a library of any size:
    (:func:`~photomodel.locate.locate_in_features`), best first, each with its own seed derived
    from the call's seed, the model's name and the attempt. How many adapts to the evidence:
    those within ``candidate_margin`` of the best screening evidence (at least
-   ``min_evidence``), at most ``max_candidates``; once one is found, only those that the
-   screen could not tell from it (within ``evidence_margin`` of its evidence) and whose scan
-   is trusted (``trusted_first``) are still located. A model is loaded and prepared only when
-   it is verified (:class:`~photomodel.identify.PreparedModels` keeps the recent ones).
+   ``min_evidence``), at most ``max_candidates``, those whose scan is trusted first
+   (``trusted_first``: their colours agree somewhere at the station's light), at most
+   ``untrusted_candidates`` of the others, and once one is found only those that the screen
+   could not tell from it (within ``evidence_margin`` of its evidence). A model is loaded
+   and prepared only when it is a candidate (:class:`~photomodel.identify.PreparedModels`
+   keeps the recent ones).
 4. **Decide**: the candidate with the highest score is the answer when its score reaches
    ``min_score``, the threshold calibrated on simulated scenes and stored with the package
    (:func:`~photomodel.identify.load_threshold`); otherwise none of the models is on the
@@ -81,6 +83,10 @@ class IdentifyConfig:
     evidence_margin : float
         Once a model is found, further models are verified only within this of its evidence
         (look-alikes the screen cannot tell apart).
+    untrusted_candidates : int
+        Most candidates whose scan is not trusted (their colours agree nowhere at the
+        station's light) that are located (searched with relit scans and the GA, slower): the
+        best-screened ones; a scene without a library garment ends after these.
     retries : int
         Further searches with fresh seeds while none reaches ``min_score``.
     retry_candidates : int
@@ -90,20 +96,20 @@ class IdentifyConfig:
     scene : SceneConfig
         Settings of the scene's regions.
     trusted_first : bool
-        Once a model is found, skip further candidates whose scan is not trusted (their
-        colours agree nowhere in the images); under another lamp every scan is untrusted and
-        the look-alikes are still searched.
+        Locate the candidates whose scan is trusted first (best-screened first), the others
+        only while none is found.
     shown_candidates : int
         Best-screened models listed in the answer's ``candidates`` beside those searched.
     """
 
     min_score: float | None = None
     max_candidates: int = 6
-    min_evidence: float = 0.2
+    min_evidence: float = 0.05
     candidate_margin: float = 0.35
     evidence_margin: float = 0.15
+    untrusted_candidates: int = 2
     retries: int = 1
-    retry_candidates: int = 3
+    retry_candidates: int = 1
     bank: BankConfig = field(default_factory=BankConfig)
     scene: SceneConfig = field(default_factory=SceneConfig)
     trusted_first: bool = True
@@ -119,6 +125,9 @@ class IdentifyConfig:
         if self.candidate_margin < 0 or self.evidence_margin < 0:
             raise ValueError("candidate_margin, evidence_margin: expected >= 0, got "
                              f"{self.candidate_margin}, {self.evidence_margin}")
+        if self.untrusted_candidates < 0:
+            raise ValueError(f"untrusted_candidates: expected >= 0, got "
+                             f"{self.untrusted_candidates}")
         if self.retries < 0 or self.retry_candidates < 1:
             raise ValueError(f"retries: expected >= 0 and retry_candidates >= 1, got "
                              f"{self.retries}, {self.retry_candidates}")
@@ -291,25 +300,32 @@ def identify_with_bank(
         best = max(located, key=lambda i: located[i].score, default=None)
         return best if best is not None and located[best].score >= min_score else None
 
-    for attempt in range(1 + c.retries):
-        if found() is not None:
-            break
-        for i in chosen if attempt == 0 else chosen[: c.retry_candidates]:
+    def verify(i: int, attempt: int) -> None:
+        r = locate_in_features(models[i], features, space=space,
+                               rng=_model_rng(base, bank.names[i], attempt),
+                               min_score=min_score, t0=time.perf_counter(), retries=0,
+                               scan=scans[i], second_look=attempt > 0)
+        if i not in located or r.score > located[i].score:
+            located[i] = r
+
+    for i in chosen:
+        models[i] = prepared(i)
+        scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
+    trusted = [i for i in chosen if scans[i].trusted or not c.trusted_first]
+    untrusted = [i for i in chosen if i not in trusted][: c.untrusted_candidates]
+    for group in (trusted, untrusted):
+        for i in group:
             hit = found()
             if hit is not None and evidence[i] < evidence[hit] - c.evidence_margin:
                 break     # the rest look less like the scene than the one found
-            if i not in models:
-                models[i] = prepared(i)
-            if i not in scans:
-                scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
-            if c.trusted_first and hit is not None and not scans[i].trusted:
-                continue  # a model is found; this one's colours agree nowhere
-            r = locate_in_features(models[i], features, space=space,
-                                   rng=_model_rng(base, bank.names[i], attempt),
-                                   min_score=min_score, t0=time.perf_counter(), retries=0,
-                                   scan=scans[i], second_look=attempt > 0)
-            if i not in located or r.score > located[i].score:
-                located[i] = r
+            if hit is not None and group is untrusted:
+                break     # a model is found; these ones' colours agree nowhere
+            verify(i, 0)
+    for attempt in range(1, 1 + c.retries):
+        if found() is not None:
+            break
+        for i in [i for i in chosen if i in located][: c.retry_candidates]:
+            verify(i, attempt)
     shown = [int(i) for i in order if int(i) in located]
     shown += [int(i) for i in order[: len(chosen) + c.shown_candidates] if int(i) not in located]
     shown.sort(key=lambda i: -evidence[i])
