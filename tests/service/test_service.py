@@ -45,6 +45,7 @@ def test_health_and_models(service, cell_data) -> None:
     health = httpx.get(f"{service.url}/health").json()
     assert health["status"] == "ok" and health["models"] == 1
     assert health["version"] == pm.__version__
+    assert health["prepared"] == 1 and health["prepared_max"] == 32   # a small library: all
     models = httpx.get(f"{service.url}/models").json()
     assert [m["name"] for m in models] == ["No.3"]
     assert {"size_mm", "area_mm2", "colours", "n_in", "n_out", "preview"} <= set(models[0])

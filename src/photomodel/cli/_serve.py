@@ -10,12 +10,12 @@ from photomodel.errors import InputError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("serve", help="run the cell service (HTTP) with every model prepared",
-                       description="Keep the calibration, the model library and every prepared "
-                                   "model in memory and answer /locate, /identify and /models "
-                                   "over HTTP; the operator page is at /. /health says "
-                                   "'warming' until every kernel is loaded and every model "
-                                   "prepared.")
+    p = sub.add_parser("serve", help="run the cell service (HTTP) over a model library",
+                       description="Keep the calibration, the model library's index and the "
+                                   "recently used models, prepared, in memory and answer "
+                                   "/locate, /identify and /models over HTTP; the operator "
+                                   "page is at /. /health says 'warming' until every kernel is "
+                                   "loaded and the library's index read.")
     p.add_argument("--stereo", required=True, type=Path, help="stereo calibration of the hand "
                                                               "rig")
     p.add_argument("--models", required=True, type=Path,
@@ -33,6 +33,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="largest request body in MiB (default 32; 413 beyond)")
     p.add_argument("--results-kept", type=int, default=20,
                    help="recent results kept with their overlays (default 20)")
+    p.add_argument("--prepared-models", type=int, default=32,
+                   help="models kept prepared in memory, about 22 MB each with 640 x 480 "
+                        "cameras (default 32; the least recently used is dropped beyond, and "
+                        "prepared again, in about 0.1-0.5 s, when next needed)")
     p.add_argument("--threshold-file", type=Path, default=None,
                    help="found threshold (default: the library's threshold.json, else the "
                         "user's)")
@@ -48,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     check_int("--searches", args.searches, 1, 64)
     check_int("--max-upload-mb", args.max_upload_mb, 1, 1024)
     check_int("--results-kept", args.results_kept, 1, 1000)
+    check_int("--prepared-models", args.prepared_models, 1, 100_000)
     from photomodel.service._cell import CellService, ServiceConfig, read_token
     from photomodel.service._server import is_loopback, serve
 
@@ -58,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     config = ServiceConfig(stereo=args.stereo, models=args.models, camera=args.camera,
                            searches=args.searches, results_kept=args.results_kept,
                            max_upload_bytes=args.max_upload_mb << 20, token=token,
-                           threshold=args.threshold_file)
+                           threshold=args.threshold_file, prepared_models=args.prepared_models)
     cell = CellService(config)
 
     def say(line: str) -> None:

@@ -11,7 +11,7 @@ import math
 import re
 import threading
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Iterator
 from importlib import resources
 from typing import Any
 from urllib.parse import parse_qs
@@ -19,7 +19,9 @@ from urllib.parse import parse_qs
 import anyio
 import anyio.to_thread
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram, generate_latest
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.exposition import CONTENT_TYPE_LATEST
+from prometheus_client.registry import Collector
 from starlette.applications import Starlette
 from starlette.datastructures import FormData, UploadFile
 from starlette.exceptions import HTTPException
@@ -119,11 +121,34 @@ class _Metrics:
         self.in_flight = Gauge("photomodel_searches_in_flight",
                                "Searches and registrations running now",
                                registry=self.registry)
-        models = Gauge("photomodel_models", "Models prepared in memory", registry=self.registry)
-        models.set_function(lambda: len(cell.models()))
+        models = Gauge("photomodel_models", "Models in the library", registry=self.registry)
+        models.set_function(cell.model_count)
         ready = Gauge("photomodel_ready", "1 when warmed up and serving",
                       registry=self.registry)
         ready.set_function(lambda: 1.0 if cell.status == "ok" else 0.0)
+        self.registry.register(_PreparedCollector(cell))
+
+
+class _PreparedCollector(Collector):
+    """The prepared models' counts (:meth:`CellService.prepared_stats`), read at each
+    scrape."""
+
+    def __init__(self, cell: CellService) -> None:
+        self.cell = cell
+
+    def collect(self) -> Iterator[Metric]:
+        stats = self.cell.prepared_stats()
+        prepared, made, evicted = ((stats.prepared, stats.misses, stats.evicted)
+                                   if stats is not None else (0, 0, 0))
+        yield GaugeMetricFamily("photomodel_prepared_models",
+                                "Models prepared in memory now (at most --prepared-models)",
+                                value=prepared)
+        yield CounterMetricFamily("photomodel_model_preparations",
+                                  "Models loaded and prepared (first use after start or "
+                                  "eviction, registrations, warm-up)", value=made)
+        yield CounterMetricFamily("photomodel_prepared_evictions",
+                                  "Prepared models dropped to stay within --prepared-models",
+                                  value=evicted)
 
 
 class _Guard:
@@ -361,8 +386,20 @@ def create_app(cell: CellService, *, warm: bool = True,
     async def health(request: Request) -> Response:
         return _JSON(cell.health())
 
+    rendered: list[Any] = [None, b""]     # the summaries last rendered and their JSON
+
+    def models_json() -> bytes:
+        summaries = cell.models()             # the same list until the library changes
+        made_for, body = rendered
+        if made_for is not summaries:
+            body = _JSON(summaries).body
+            rendered[:] = [summaries, body]
+        return body
+
     async def list_models(request: Request) -> Response:
-        return _JSON(cell.models())
+        # a catalogue's list takes a while to render once: not on the event loop
+        body = await anyio.to_thread.run_sync(models_json, limiter=limiter_unbounded)
+        return Response(body, media_type="application/json")
 
     async def add_model(request: Request) -> Response:
         form = await _form(request, limit)

@@ -32,7 +32,8 @@ async function refreshHealth() {
     serviceStatus = health.status;
     $("status").textContent = health.status;
     $("status").className = "badge " + health.status;
-    $("detail").textContent = `${health.detail} · ${health.models} models · ` +
+    $("detail").textContent = `${health.detail} · ${health.models} models ` +
+      `(${health.prepared} of at most ${health.prepared_max} prepared) · ` +
       `${health.searches} searches at once · photomodel ${health.version}`;
   } catch (error) {
     serviceStatus = "unreachable";
@@ -56,7 +57,8 @@ async function refreshLibrary() {
     const remove = el("button", { class: "danger", type: "button" }, "Delete");
     remove.addEventListener("click", () => deleteModel(m.name));
     return el("div", { class: "card", "data-model": m.name },
-      el("img", { src: `${m.preview}?t=${encodeURIComponent(m.added_utc)}`, alt: m.name }),
+      el("img", { src: `${m.preview}?t=${encodeURIComponent(m.added_utc)}`, alt: m.name,
+                  loading: "lazy" }),
       el("div", { class: "name" }, m.name),
       el("div", { class: "muted" },
          `${fmt(m.size_mm[0], 0)} x ${fmt(m.size_mm[1], 0)} mm · ${fmt(m.area_mm2 / 100, 0)} cm²`),
