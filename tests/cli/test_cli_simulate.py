@@ -209,3 +209,55 @@ def test_add_garment_with_a_name_that_is_no_directory(capsys, tmp_path: Path,
     argv = ["simulate", "--out", tmp_path / "out", "--add-garment", "a/b", image, mask, "200"]
     _assert_one_error_line(*_run(capsys, argv), "a/b")
     _assert_nothing_written(tmp_path, "inputs")
+
+
+# --- a simulated catalogue of any size --------------------------------------------------------
+
+
+def test_catalogue_writes_model_photos_without_scenes(capsys, tmp_path: Path) -> None:
+    out = tmp_path / "lib"
+    code, stdout, err = _run(capsys, ["simulate", "--out", out, "--catalogue", "3"])
+    assert code == 0, err
+    assert "3 model(s), 0 scene(s)" in stdout
+    names = ["cat-00000", "cat-00001", "cat-00002"]
+    assert set(_files(out)) == {"stereo.yaml", "model_camera.yaml", "truth.json",
+                                "dataset.json"} | {f"models/{n}/{f}" for n in names
+                                                   for f in ("photo.bmp", "background.bmp")}
+    assert json.loads((out / "truth.json").read_text()) == {}
+    assert list(json.loads((out / "dataset.json").read_text())["library"]) == names
+    # Beside garments of its own, a catalogue adds model photos only; no-target still has
+    # its scenes.
+    both = tmp_path / "both"
+    code, stdout, err = _run(capsys, ["simulate", "--out", both, "--catalogue", "2",
+                                      "--garments", "No.3,cat-00001", "--conditions",
+                                      "paper,no-target"])
+    assert code == 0, err
+    truth = json.loads((both / "truth.json").read_text())
+    assert set(truth) == {"paper_No.3_0000", "paper_cat-00001_0000", "no-target_0000"}
+    assert sorted(p.name for p in (both / "models").iterdir()) == [
+        "No.3", "cat-00000", "cat-00001"]
+    # The same seed gives the same model photo, asked for in a library or as a garment.
+    assert ((both / "models" / "cat-00000" / "photo.bmp").read_bytes()
+            == (out / "models" / "cat-00000" / "photo.bmp").read_bytes())
+
+
+@pytest.mark.parametrize(("value", "option"), [
+    (["--catalogue", "0"], "--catalogue"),
+    (["--catalogue", "100001"], "--catalogue"),
+    (["--catalogue", "-4"], "--catalogue"),
+    (["--garments", "catalogue:0"], "--garments"),
+    (["--garments", "catalogue:abc"], "--garments"),
+    (["--garments", "cat-100000"], "--garments"),
+])
+def test_bad_catalogue_values(capsys, tmp_path: Path, value: list[str], option: str) -> None:
+    argv = ["simulate", "--out", tmp_path / "out", "--conditions", "no-target", *value]
+    line = _assert_one_error_line(*_run(capsys, argv), option)
+    assert "catalogue" in line or "cat-" in line
+    _assert_nothing_written(tmp_path)
+
+
+def test_a_catalogue_size_that_is_no_number(capsys, tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as exit_:   # argparse's own check, one line too
+        main(["simulate", "--out", str(tmp_path / "out"), "--catalogue", "many"])
+    _assert_one_error_line(exit_.value.code, *capsys.readouterr(), "--catalogue", "'many'")
+    _assert_nothing_written(tmp_path)

@@ -19,12 +19,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "the true poses (truth.json).",
         epilog="conditions (join with '+', e.g. wood+wrinkles): " + ", ".join(CONDITIONS))
     p.add_argument("--out", required=True, type=Path, help="dataset directory to create")
-    p.add_argument("--garments", default="all",
+    p.add_argument("--garments", default=None,
                    help="comma-separated catalogue names (No.1,...,No.12, look-alikes such as "
-                        "No.3-red, plane-coloured ones such as green-print) or groups: 'all' "
-                        "(the paper's 12, default), 'similar' (look-alike pairs), "
-                        "'plane-coloured' (garments partly or wholly of a station plane's "
-                        "colour, each on its plane)")
+                        "No.3-red, plane-coloured ones such as green-print, articles of the "
+                        "simulated catalogue cat-00000 to cat-99999) or groups: 'all' (the "
+                        "paper's 12, default unless --catalogue is given), 'similar' "
+                        "(look-alike pairs), 'plane-coloured' (garments partly or wholly of a "
+                        "station plane's colour, each on its plane), 'catalogue:N' (the first "
+                        "N articles of the simulated catalogue)")
+    p.add_argument("--catalogue", type=int, default=None, metavar="N",
+                   help="also write the model photos (no scenes) of the first N articles of "
+                        "the simulated catalogue, cat-00000 ... (1 to 100000): random "
+                        "garments of every shape, fabric and size, one in ten a look-alike of "
+                        "the one before, to build model libraries of any size. About 1.8 MB "
+                        "per article (1000 articles: 1.8 GB). Without --garments, no garment "
+                        "scenes are written (target-less conditions such as no-target still "
+                        "are)")
     p.add_argument("--scenes", type=int, default=1, metavar="N",
                    help="scenes per garment and condition, 1 to 10000 (default 1)")
     p.add_argument("--conditions", default="paper",
@@ -53,7 +63,8 @@ def _split(text: str) -> list[str]:
 
 
 _OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
-            "conditions": "--conditions", "calibration_views": "--calibration-views"}
+            "conditions": "--conditions", "calibration_views": "--calibration-views",
+            "library": "--catalogue"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -69,8 +80,12 @@ def run(args: argparse.Namespace) -> int:
         write_dataset,
     )
     from photomodel.sim._dataset import MAX_SCENES, check_garment_name
+    from photomodel.sim._random_catalogue import MAX_CATALOGUE, catalogue_names
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
+    library: tuple[str, ...] = ()
+    if args.catalogue is not None:
+        library = catalogue_names(check_int("--catalogue", args.catalogue, 1, MAX_CATALOGUE))
     check_seed(args.seed)
     if args.calibration_views != 0:
         from photomodel.sim._calibration import MAX_CALIBRATION_VIEWS, MIN_CALIBRATION_VIEWS
@@ -79,11 +94,12 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--calibration-views",
                              f"expected 0 (none) or an integer from {MIN_CALIBRATION_VIEWS} "
                              f"to {MAX_CALIBRATION_VIEWS}, got {args.calibration_views}")
+    given = args.garments if args.garments is not None else ("" if library else "all")
     try:
-        garments = list(expand_garments(args.garments))
+        garments = list(expand_garments(given))
     except ValueError as exc:
         raise InputError("--garments", str(exc)) from None
-    if not garments and not args.add_garment:
+    if not garments and not args.add_garment and not library:
         raise InputError("--garments", "no garment named")
     conditions = list(CONDITIONS) if args.conditions == "all" else _split(args.conditions)
     for spec in conditions:
@@ -112,8 +128,8 @@ def run(args: argparse.Namespace) -> int:
             conditions = [c for c in conditions if c not in ("no-distortion", "wide-lens")]
         with count_progress("simulating", sys.stderr.isatty()) as progress:
             summary = write_dataset(args.out, garments, conditions, args.scenes, args.seed,
-                                    extra_garments=extra, overwrite=args.force,
-                                    progress=progress,
+                                    extra_garments=extra, library=library,
+                                    overwrite=args.force, progress=progress,
                                     calibration_views=args.calibration_views)
     except ValueError as exc:   # an InputError (names its file) passes unchanged
         raise as_option_error(exc, _OPTIONS, "--conditions" if "lens" in str(exc)

@@ -1,8 +1,9 @@
 """Simulator: the paper's cell as a digital twin, writing real-format data with ground truth.
 
-Garments (the catalogue of the paper's 12, or a user's own), the model station and the hand
-stereo rig, named nuisances (:data:`CONDITIONS`), an exact renderer for flat items and a mesh
-renderer for wrinkled cloth, and :func:`write_dataset` (what ``photomodel simulate`` runs).
+Garments (the catalogue of the paper's 12, a simulated catalogue of up to 100,000 random
+articles with look-alike pairs, or a user's own), the model station and the hand stereo rig,
+named nuisances (:data:`CONDITIONS`), an exact renderer for flat items and a mesh renderer for
+wrinkled cloth, and :func:`write_dataset` (what ``photomodel simulate`` runs).
 
 Frames follow docs/contracts.md: a texture (and garment) frame has x along the texture's
 columns, y along its rows and z into the plane; ``T_a_b`` maps frame b to frame a; lengths in
@@ -33,6 +34,12 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "load_garment",
         ],
         "_presets": ["CONDITIONS"],
+        "_random_catalogue": [
+            "MAX_CATALOGUE",
+            "catalogue_names",
+            "catalogue_spec",
+            "lookalike_of",
+        ],
         "_conditions": [
             "LENSES",
             "TABLES",
@@ -108,6 +115,7 @@ __all__ = [
     "GARMENT_GROUPS",
     "GARMENT_SHAPES",
     "LENSES",
+    "MAX_CATALOGUE",
     "MODEL_DISTANCE_MM",
     "MODEL_GREEN_BGR",
     "OBJECT_KINDS",
@@ -137,6 +145,8 @@ __all__ = [
     "blur",
     "camo_fabric",
     "catalogue_garment",
+    "catalogue_names",
+    "catalogue_spec",
     "chessboard_texture",
     "contact_sheet",
     "dot_fabric",
@@ -153,6 +163,7 @@ __all__ = [
     "hsv_to_bgr",
     "known_garments",
     "load_garment",
+    "lookalike_of",
     "make_garment",
     "make_object",
     "make_table",

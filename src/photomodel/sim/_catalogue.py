@@ -10,6 +10,10 @@ model station plane's colour (a print on a green ground, a dark-green hem; grey,
 garments photographed on a plane of their own colour): the cases the paper's average-hue rule
 loses and the per-pixel comparison with the background photo must recover.
 
+A simulated catalogue of up to 100,000 random articles, ``cat-00000`` ... ``cat-99999``, with
+look-alike pairs, lives in :mod:`photomodel.sim._random_catalogue`; its names work here as the
+others do (``catalogue_garment("cat-00042")``, ``--garments catalogue:1000``).
+
 A user's own garment comes from a photo and a mask (:func:`garment_from_image`,
 :func:`load_garment`).
 """
@@ -73,6 +77,9 @@ class GarmentSpec:
         None: the station's green.
     hem : (float, (3,)), optional
         A band of another colour along the bottom edge: (height mm, BGR colour).
+    photo_tile_mm : float, optional
+        A ``photo`` fabric's repeat width, mm (mirrored tiles); None: one picture over the
+        whole garment.
     """
 
     name: str
@@ -85,6 +92,7 @@ class GarmentSpec:
     description: str = ""
     plane_bgr: tuple[int, int, int] | None = None
     hem: tuple[float, tuple[int, int, int]] | None = None
+    photo_tile_mm: float | None = None
 
 
 _NAVY_BGR = (72, 36, 26)  # value 72: dark, hue unreliable
@@ -180,9 +188,36 @@ GARMENT_GROUPS: dict[str, tuple[str, ...]] = {
 }
 """Named sets of garments for ``--garments``: ``all`` is the paper's 12, ``similar`` the
 look-alike pairs (each original with its twin), ``plane-coloured`` the garments of
-:data:`PLANE_COLOURED`."""
+:data:`PLANE_COLOURED`. Besides these, ``catalogue:N`` names the first N articles of the
+simulated catalogue (``cat-00000`` ... ``cat-99999``)."""
 
 _SPECS: dict[str, GarmentSpec] = {**CATALOGUE, **SIMILAR, **PLANE_COLOURED}
+_CATALOGUE_GROUP = "catalogue:"
+_SIMULATED_NAMES = ("cat-NNNNN (an article of the simulated catalogue, cat-00000 to "
+                    "cat-99999)")
+
+
+def _spec(name: str) -> GarmentSpec | None:
+    """The spec of a built-in garment or of an article of the simulated catalogue; None for
+    any other name."""
+    from photomodel.sim import _random_catalogue as random_catalogue
+
+    if name in _SPECS:
+        return _SPECS[name]
+    if random_catalogue.is_catalogue_name(name):
+        return random_catalogue.catalogue_spec(int(name[4:]))
+    return None
+
+
+def _catalogue_group(text: str) -> tuple[str, ...]:
+    """The names of ``catalogue:N`` (the first N articles of the simulated catalogue)."""
+    from photomodel.sim._random_catalogue import MAX_CATALOGUE, catalogue_names
+
+    value = text[len(_CATALOGUE_GROUP):].strip()
+    if not (value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_CATALOGUE):
+        raise ValueError(f"{text!r}: catalogue:N takes the number of articles of the simulated "
+                         f"catalogue, an integer from 1 to {MAX_CATALOGUE}, got {value!r}")
+    return catalogue_names(int(value))
 
 
 def garment_names() -> tuple[str, ...]:
@@ -191,19 +226,25 @@ def garment_names() -> tuple[str, ...]:
 
 
 def known_garments() -> tuple[str, ...]:
-    """Every garment :func:`catalogue_garment` builds: the paper's 12, the look-alikes and the
-    plane-coloured ones."""
+    """The named garments :func:`catalogue_garment` builds: the paper's 12, the look-alikes and
+    the plane-coloured ones (besides the simulated catalogue's ``cat-00000`` ...
+    ``cat-99999``)."""
     return tuple(_SPECS)
 
 
 def expand_garments(text: str) -> tuple[str, ...]:
-    """Garment names of a ``--garments`` value: a group name of :data:`GARMENT_GROUPS` or
-    comma-separated names and group names, in order, without repeats.
+    """Garment names of a ``--garments`` value: comma-separated names and groups, in order,
+    without repeats.
+
+    A name is a garment of :func:`known_garments` or an article of the simulated catalogue
+    (``cat-00042``); a group is one of :data:`GARMENT_GROUPS` or ``catalogue:N``, the first N
+    articles of the simulated catalogue (1 <= N <= 100000).
 
     Raises
     ------
     ValueError
-        An unknown name (the message lists the known ones and the groups).
+        An unknown name (the message lists the known ones and the groups) or a bad
+        ``catalogue:N``.
     """
     names: list[str] = []
     for part in (t.strip() for t in text.split(",")):
@@ -211,20 +252,25 @@ def expand_garments(text: str) -> tuple[str, ...]:
             continue
         if part in GARMENT_GROUPS:
             names += GARMENT_GROUPS[part]
-        elif part in _SPECS:
+        elif part.startswith(_CATALOGUE_GROUP):
+            names += _catalogue_group(part)
+        elif _spec(part) is not None:
             names.append(part)
         else:
-            raise ValueError(f"unknown garment {part!r}; known: {', '.join(_SPECS)}; groups: "
-                             f"{', '.join(GARMENT_GROUPS)}")
+            raise ValueError(f"unknown garment {part!r}; known: {', '.join(_SPECS)}, "
+                             f"{_SIMULATED_NAMES}; groups: {', '.join(GARMENT_GROUPS)}, "
+                             f"catalogue:N (its first N articles)")
     return tuple(dict.fromkeys(names))
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=64)  # at most 64 textures, up to 1.5 MB each at 0.5 mm per pixel
 def _build(name: str, mm_per_px: float) -> Garment:
-    spec = _SPECS[name]
+    spec = _spec(name)
+    assert spec is not None
     garment = make_garment(spec.shape, spec.fabric, spec.size_mm, rng=spec.seed,
                            mm_per_px=mm_per_px, colour_bgr=spec.colour_bgr, name=spec.name,
-                           photo=spec.photo, description=spec.description)
+                           photo=spec.photo, description=spec.description,
+                           photo_tile_mm=spec.photo_tile_mm)
     if spec.hem is not None:
         garment = _with_hem(garment, *spec.hem, rng=spec.seed + 1)
     if spec.plane_bgr is not None:
@@ -258,7 +304,8 @@ def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
     ----------
     name : str
         ``"No.1"`` ... ``"No.12"`` (see :func:`garment_names`), a look-alike of
-        :data:`SIMILAR` or a garment of :data:`PLANE_COLOURED`.
+        :data:`SIMILAR`, a garment of :data:`PLANE_COLOURED` or an article of the simulated
+        catalogue, ``"cat-00000"`` ... ``"cat-99999"`` (:func:`catalogue_spec`).
     mm_per_px : float
         Texture pixel size, mm.
 
@@ -272,8 +319,9 @@ def catalogue_garment(name: str, mm_per_px: float = 0.5) -> Garment:
     ValueError
         Unknown name (the message lists the known ones) or a non-positive ``mm_per_px``.
     """
-    if name not in _SPECS:
-        raise ValueError(f"name: no catalogue garment {name!r}; known: {', '.join(_SPECS)}")
+    if not isinstance(name, str) or _spec(name) is None:
+        raise ValueError(f"name: no catalogue garment {name!r}; known: {', '.join(_SPECS)}, "
+                         f"{_SIMULATED_NAMES}")
     if not (math.isfinite(mm_per_px) and mm_per_px > 0):
         raise ValueError(f"mm_per_px: must be positive, got {mm_per_px}")
     return _build(name, float(mm_per_px))

@@ -15,30 +15,37 @@
 
 Every image has its own seed, derived from the dataset's seed and the names (condition,
 garment, index) of what it shows, so the same seed gives byte-identical files, and adding a
-garment or a condition leaves the other scenes unchanged. The directory is built beside its
-final place and moved there only when complete; the scenes are written one by one (memory does
-not grow with their number). ``overwrite`` replaces only a dataset (a directory with
-``dataset.json``), never a file or another directory.
+garment or a condition leaves the other scenes unchanged. A large ``library`` (model photos of
+catalogue articles without scenes: ``simulate --catalogue N``) is rendered by worker
+processes; each photo's bytes depend only on its seed, never on the workers. The directory is
+built beside its final place and moved there only when complete; the scenes are written one by
+one (memory does not grow with their number). ``overwrite`` replaces only a dataset (a
+directory with ``dataset.json``), never a file or another directory.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import multiprocessing
 import os
 import re
 import shutil
+import sys
 import zlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from photomodel.camera import save_camera, save_stereo
+from photomodel.camera import PinholeCamera, save_camera, save_stereo
 from photomodel.errors import InputError
 from photomodel.image import write_image
+from photomodel.sim._catalogue import _spec as _garment_spec
 from photomodel.sim._catalogue import catalogue_garment, garment_names
 from photomodel.sim._conditions import Conditions, parse_conditions
 from photomodel.sim._garments import Garment
@@ -61,6 +68,9 @@ _FORMAT = "photomodel-dataset"
 MAX_SCENES = 10_000
 """Most scenes per garment and condition (the paper's study is 1000)."""
 MAX_SEED = 2**32 - 1
+LIBRARY_WORKERS = 2
+"""Worker processes that render a large ``library``'s model photos."""
+_PARALLEL_FROM = 16  # fewer library photos than this are rendered in this process
 
 
 def _key(text: str) -> int:
@@ -135,9 +145,11 @@ def write_dataset(
     seed: int = 0,
     *,
     extra_garments: Mapping[str, Garment] | None = None,
+    library: Sequence[str] = (),
     overwrite: bool = False,
     progress: Callable[[int, int, str], None] | None = None,
     calibration_views: int = 0,
+    workers: int | None = None,
 ) -> DatasetSummary:
     """Simulate a dataset: model photos of each garment and stereo scenes with their truth.
 
@@ -157,6 +169,13 @@ def write_dataset(
         Seed of the whole dataset, 0 to 2**32 - 1.
     extra_garments : mapping of str to Garment, optional
         Users' own garments (:func:`load_garment`), simulated like catalogue ones.
+    library : sequence of str
+        Catalogue names (typically of the simulated catalogue, ``catalogue_names(n)``) whose
+        model photos are written too, without scenes of their own: the models of an
+        identification library. Names also in ``garments`` are written once. With a library,
+        ``garments`` may be empty: then only the conditions without a target give scenes, and
+        a dataset may have none (``truth.json`` is ``{}``). Each model photo takes about
+        1.8 MB.
     overwrite : bool
         Replace ``out`` if it is a dataset (has ``dataset.json``); a non-empty ``out`` is
         otherwise an error, and a file or a directory of anything else always is.
@@ -165,6 +184,10 @@ def write_dataset(
     calibration_views : int
         0 (default) for none, else also write ``calibration/``: chessboard views with their
         truth, this many per set (:func:`~photomodel.sim._calibration.write_calibration`).
+    workers : int, optional
+        Processes that render the library's model photos (default: :data:`LIBRARY_WORKERS`
+        when it holds at least 16 garments not in ``garments``, else 1, in this process).
+        The files do not depend on it.
 
     Returns
     -------
@@ -196,6 +219,8 @@ def write_dataset(
         raise ValueError(f"scenes: expected an integer from 1 to {MAX_SCENES}, got {scenes}")
     if not 0 <= seed <= MAX_SEED:
         raise ValueError(f"seed: expected an integer from 0 to {MAX_SEED}, got {seed}")
+    if workers is not None and not 1 <= workers <= 64:
+        raise ValueError(f"workers: expected an integer from 1 to 64, got {workers}")
     names = list(garment_names() if garments is None else garments)
     chosen: dict[str, Garment] = {name: catalogue_garment(name) for name in names}
     for name, garment in (extra_garments or {}).items():
@@ -204,6 +229,7 @@ def write_dataset(
         chosen[name] = garment
     for name in chosen:
         check_garment_name(name)
+    shelf = _library_names(library, chosen)
     specs = list(dict.fromkeys(conditions))
     if not specs:
         raise ValueError("conditions: expected at least one")
@@ -213,7 +239,7 @@ def write_dataset(
         raise ValueError("conditions ask for different lenses "
                          f"({', '.join(sorted(lenses))}); a dataset has one stereo calibration: "
                          "simulate them into separate datasets")
-    if any(c.target for c in parsed.values()) and not chosen:
+    if any(c.target for c in parsed.values()) and not chosen and not shelf:
         raise ValueError("garments: expected at least one")
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise InputError(out, "exists and is not a directory; choose another --out")
@@ -224,7 +250,7 @@ def write_dataset(
                                   "those: choose another --out")
         if not overwrite:
             raise InputError(out, "already exists and is not empty (use --force to replace it)")
-    total = (len(chosen) + _count_jobs(parsed, len(chosen), scenes)
+    total = (len(chosen) + len(shelf) + _count_jobs(parsed, len(chosen), scenes)
              + calibration_image_count(calibration_views))
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     created = next((p for p in reversed(out.parents) if not p.exists()), None)
@@ -245,6 +271,10 @@ def write_dataset(
                                                     scene_rng(seed, "model", name))
             write_image(tmp / "models" / name / "photo.bmp", photo)
             write_image(tmp / "models" / name / "background.bmp", background)
+            done += 1
+            if progress is not None:
+                progress(done, total, f"model {name}")
+        for name in _write_library(tmp, shelf, seed, camera, workers):
             done += 1
             if progress is not None:
                 progress(done, total, f"model {name}")
@@ -281,6 +311,8 @@ def write_dataset(
             write_calibration(tmp, rig, camera, calibration_views, seed,
                               progress=calibration_progress)
         manifest = _manifest(seed, chosen, parsed, scenes)
+        if shelf:
+            manifest["library"] = _library_manifest(shelf)
         if calibration_views:
             manifest["calibration"] = {"views": int(calibration_views),
                                        "readme": "calibration/README.txt"}
@@ -298,7 +330,90 @@ def write_dataset(
             shutil.rmtree(tmp, ignore_errors=True)
         if not complete and created is not None and created.exists():
             shutil.rmtree(created, ignore_errors=True)  # folders this call made for ``out``
-    return DatasetSummary(out, tuple(chosen), tuple(scene_ids))
+    return DatasetSummary(out, (*chosen, *shelf), tuple(scene_ids))
+
+
+def _library_names(library: Sequence[str], chosen: Mapping[str, Garment]) -> list[str]:
+    """The library's names not in ``chosen``, in order, without repeats; ValueError
+    (``library: ...``) for a name that is no catalogue garment."""
+    if isinstance(library, str):
+        raise ValueError("library: expected a sequence of garment names, got a string")
+    shelf = [name for name in dict.fromkeys(library) if name not in chosen]
+    for name in shelf:
+        if not isinstance(name, str) or _garment_spec(name) is None:
+            raise ValueError(f"library: no catalogue garment {name!r} (expected names such as "
+                             "No.3 or cat-00042)")
+        check_garment_name(name)
+    return shelf
+
+
+def _write_library(tmp: Path, names: Sequence[str], seed: int, camera: PinholeCamera,
+                   workers: int | None) -> Iterator[str]:
+    """Write the model photos of catalogue garments ``names`` into ``tmp/models/``, yielding
+    each name once its photos are written, in order; in worker processes when there are many
+    (see :func:`write_dataset`), else, or when workers cannot start, in this process."""
+    if workers is None:
+        workers = min(LIBRARY_WORKERS, os.cpu_count() or 1) if len(names) >= _PARALLEL_FROM else 1
+    jobs = [(str(tmp), name, seed, camera) for name in names]
+    done = 0
+    if workers > 1 and len(names) > 1 and _can_spawn():
+        try:
+            with ProcessPoolExecutor(max_workers=workers,
+                                     mp_context=multiprocessing.get_context("spawn"),
+                                     initializer=_init_worker, initargs=(os.getpid(),)) as pool:
+                # In order, a few at a time per worker; leaving early cancels the rest.
+                for name in pool.map(_write_model_photos, jobs, chunksize=4):
+                    done += 1
+                    yield name
+        except BrokenProcessPool:
+            pass  # a worker died (killed, out of memory): the rest in this process
+    for job in jobs[done:]:
+        yield _write_model_photos(job)
+
+
+def _can_spawn() -> bool:
+    """Whether spawned workers can start: they run the main script again by its path, which a
+    program read from stdin (``python -``) does not have."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    return path is None or Path(path).is_file()
+
+
+def _init_worker(parent_pid: int) -> None:
+    """Initialiser of a library worker: ends with the process that started it, leaves Ctrl-C
+    to it (which stops the pool and removes the half-built dataset), one numba thread (the
+    processes give the parallelism)."""
+    import signal
+
+    import numba
+
+    from photomodel.experiments._lock import die_with_parent
+
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    numba.set_num_threads(1)
+
+
+def _write_model_photos(job: tuple[str, str, int, PinholeCamera]) -> str:
+    """Render and write ``models/<name>/photo.bmp`` and ``background.bmp`` of one catalogue
+    garment (a worker's job: (dataset directory, name, seed, model camera)); its name."""
+    tmp, name, seed, camera = job
+    garment = catalogue_garment(name)
+    photo, background = render_model_photos(garment, camera, scene_rng(seed, "model", name))
+    write_image(Path(tmp) / "models" / name / "photo.bmp", photo)
+    write_image(Path(tmp) / "models" / name / "background.bmp", background)
+    return name
+
+
+def _library_manifest(names: Sequence[str]) -> dict[str, Any]:
+    """``dataset.json``'s ``library``: each garment's size, shape, fabric and description."""
+    out: dict[str, Any] = {}
+    for name in names:
+        spec = _garment_spec(name)
+        assert spec is not None
+        out[name] = {"size_mm": list(spec.size_mm), "shape": spec.shape, "fabric": spec.fabric,
+                     "description": spec.description}
+    return out
 
 
 _NUMBER_LIST = re.compile(r"\[\s+([^\[\]{}\"]*?)\s+\]")

@@ -268,6 +268,7 @@ def make_garment(
     *,
     photo: str | None = None,
     description: str = "",
+    photo_tile_mm: float | None = None,
 ) -> Garment:
     """Make a garment: a fabric cut to a silhouette, origin at the silhouette's area centroid.
 
@@ -297,6 +298,9 @@ def make_garment(
         drawn from ``rng``); ignored for the other fabrics.
     description : str
         Words for people, stored in the garment.
+    photo_tile_mm : float, optional
+        The photo fabric's repeat width, mm (mirrored tiles, see
+        :func:`~photomodel.sim.photo_fabric`); default: one picture over the whole garment.
     """
     if fabric not in FABRICS:
         raise ValueError(f"fabric: expected one of {FABRICS}, got {fabric!r}")
@@ -325,7 +329,8 @@ def make_garment(
     elif fabric == "camo":
         cloth = camo_fabric(size_px, gen, mm_per_px=mm_per_px)
     else:
-        cloth = photo_fabric(size_px, gen, photo=photo, mm_per_px=mm_per_px)
+        cloth = photo_fabric(size_px, gen, photo=photo, tile_mm=photo_tile_mm,
+                             mm_per_px=mm_per_px)
     texture = PlaneTexture(cloth.image_bgr, alpha, mm_per_px, _area_centroid_px(alpha))
     return Garment(name or f"{shape}-{fabric}", texture,
                    (float(size_mm[0]), float(size_mm[1])), shape, fabric, description)
