@@ -53,7 +53,11 @@ def _colours(entry: LibraryEntry) -> str:
 
 
 def _entry_json(entry: LibraryEntry) -> dict[str, Any]:
-    return {"name": entry.name, **entry.to_json_dict()}
+    """The entry for people and scripts: its index fields without the descriptor (numbers
+    for the screen, not for reading)."""
+    d = entry.to_json_dict()
+    d.pop("descriptor", None)
+    return {"name": entry.name, **d}
 
 
 def run_list(args: argparse.Namespace) -> int:

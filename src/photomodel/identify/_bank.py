@@ -80,6 +80,7 @@ class DescriptorBank:
             raise ValueError(f"descriptors: expected one per name ({len(names)}), got "
                              f"{len(descriptors)}")
         self.names = tuple(names)
+        self.index = {name: i for i, name in enumerate(self.names)}
         m = len(descriptors)
         k = max((len(d.colour_bins) for d in descriptors), default=1)
         self.bins = np.zeros((m, k, 3), dtype=np.int32)

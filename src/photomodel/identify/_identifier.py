@@ -28,8 +28,9 @@ from photomodel.search import SearchSpace
 
 __all__ = ["DEFAULT_PREPARED_MODELS", "Identifier"]
 
-DEFAULT_PREPARED_MODELS = 64
-"""Models an :class:`Identifier` of a library keeps prepared (a few MB each)."""
+DEFAULT_PREPARED_MODELS = 32
+"""Models an :class:`Identifier` of a library keeps prepared (about 20 MB each with 640 x 480
+cameras)."""
 
 
 class Identifier:
@@ -76,12 +77,12 @@ class Identifier:
         self.rig = rig
         self.space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
         given: list[Locator] = []
-        self.entries: dict[str, LibraryEntry] = {}
+        entries: dict[str, LibraryEntry] = {}
         if isinstance(library, ModelLibrary):
             self.library: ModelLibrary | None = library
-            self.entries = self._read(library)
-            names = list(self.entries)
-            descriptors = [e.descriptor for e in self.entries.values()]
+            entries = self._read(library)
+            names = list(entries)
+            descriptors = [e.descriptor for e in entries.values()]
             load: Callable[[str], PhotoModel] = self._load_entry
             capacity = prepared_models or DEFAULT_PREPARED_MODELS
         else:
@@ -105,7 +106,9 @@ class Identifier:
         if given:
             self.space = given[0].space
         assert all(d is not None for d in descriptors)   # described() described them all
-        self.bank = DescriptorBank(names, descriptors)  # type: ignore[arg-type]
+        self._load = load
+        # the library's state, swapped as one by reload() while calls may run
+        self._state = (entries, DescriptorBank(names, descriptors))  # type: ignore[arg-type]
         self.prepared = PreparedModels(load, rig, capacity, space=self.space,
                                        min_score=config.min_score, prepare=prepare)
         for loc in given:
@@ -118,6 +121,16 @@ class Identifier:
         for s in scan.skipped:
             warnings.warn(str(s), stacklevel=3)
         return {e.name: e for e in scan.entries}
+
+    @property
+    def entries(self) -> dict[str, LibraryEntry]:
+        """The library's index entries by name (empty for models in memory)."""
+        return self._state[0]
+
+    @property
+    def bank(self) -> DescriptorBank:
+        """Every model's descriptor, as the screen reads them."""
+        return self._state[1]
 
     def _load_entry(self, name: str) -> PhotoModel:
         assert self.library is not None
@@ -135,9 +148,9 @@ class Identifier:
             if new is None or (new.file, new.file_bytes, new.file_mtime_ns) != (
                     old.file, old.file_bytes, old.file_mtime_ns):
                 self.prepared.drop(name)
-        self.entries = entries
-        self.bank = DescriptorBank(list(entries), [e.descriptor for e in entries.values()
-                                                   if e.descriptor is not None])
+        bank = DescriptorBank(list(entries), [e.descriptor for e in entries.values()
+                                              if e.descriptor is not None])
+        self._state = (entries, bank)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -153,7 +166,7 @@ class Identifier:
     def locator(self, name: str) -> Locator:
         """The prepared :class:`~photomodel.Locator` of model ``name`` (prepared now when it
         is not held)."""
-        if name not in self.bank.names:
+        if name not in self.entries and name not in self.bank.index:
             raise KeyError(name)
         return self.prepared.get(name)
 
@@ -172,10 +185,15 @@ class Identifier:
                           rng: int | np.random.Generator | None = None, *,
                           t0: float | None = None) -> IdentifyResult:
         """:meth:`__call__` on a stereo pair already turned into features."""
-        bank = self.bank      # one library state for the whole call (reload swaps it)
+        entries, bank = self._state   # one library state for the whole call
+
+        def load(name: str) -> PhotoModel:
+            if self.library is None:
+                return self._load(name)
+            return self.library.load_entry(entries[name])
 
         def prepared(i: int) -> PreparedModel:
-            return self.prepared.get(bank.names[i]).prepared
+            return self.prepared.get(bank.names[i], load).prepared
 
         return identify_with_bank(bank, prepared, features, config=self.config,
                                   space=self.space, rng=rng, t0=t0)
