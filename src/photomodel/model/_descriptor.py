@@ -122,7 +122,7 @@ class ModelDescriptor:
             mean = tuple(float(v) for v in d["mean_lab"])
             bins = np.asarray(d["colour_bins"], dtype=np.int64)
             weights = np.asarray(d["colour_weights"], dtype=np.float64)
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:  # 10**400 too
             raise ValueError(f"descriptor: malformed ({type(exc).__name__}: {exc})") from None
         numbers = np.array([area, *size, *moments, *mean], dtype=np.float64)
         if (len(size) != 2 or len(moments) != 2 or len(mean) != 3
@@ -132,7 +132,8 @@ class ModelDescriptor:
                              "2 moments and 3 mean colours")
         if (bins.ndim != 1 or bins.shape != weights.shape or not 0 < len(bins) <= MAX_COLOUR_BINS
                 or bins.min() < 0 or bins.max() >= _N_BINS or not np.all(np.isfinite(weights))
-                or weights.min() < 0 or not 0.5 < weights.sum() < 1.5):
+                or weights.min() < 0 or weights.max() > 1.5  # the sum cannot overflow
+                or not 0.5 < weights.sum() < 1.5):
             raise ValueError(f"descriptor: expected 1 to {MAX_COLOUR_BINS} colour bins in "
                              f"0..{_N_BINS - 1} with non-negative weights summing to 1")
         return cls(area, (size[0], size[1]), (moments[0], moments[1]),
