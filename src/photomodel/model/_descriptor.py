@@ -59,6 +59,17 @@ SCENE_SMOOTH_SIGMA_PX = 0.7
 """Smoothing of the level-0 features, as :class:`~photomodel.fitness.SoftMatch`'s default."""
 MAX_COLOUR_BINS = 64
 _N_BINS = int(np.prod(COLOUR_GRID_SHAPE))
+_NUMBER_LISTS = {"size_mm": False, "moments_mm2": False, "mean_lab": False,
+                 "colour_bins": True, "colour_weights": False}
+"""The list fields of a stored descriptor, and whether they hold whole numbers."""
+
+
+def _is_number(value: Any, whole: bool = False) -> bool:
+    """Whether ``value`` is a JSON number (not a boolean, nor a text of digits); an integer
+    when ``whole``."""
+    if isinstance(value, bool):
+        return False
+    return isinstance(value, int) if whole else isinstance(value, int | float)
 
 
 @dataclass(frozen=True)
@@ -112,9 +123,18 @@ class ModelDescriptor:
         if not isinstance(d, dict):
             raise ValueError(f"descriptor: expected an object, got {type(d).__name__}")
         version = d.get("version")
-        if version != DESCRIPTOR_VERSION:
+        if isinstance(version, bool) or version != DESCRIPTOR_VERSION:
             raise ValueError(f"descriptor: version {version!r}, this photomodel reads "
                              f"{DESCRIPTOR_VERSION}")
+        for key, whole in _NUMBER_LISTS.items():   # a missing key is said below
+            value = d.get(key)
+            if key in d and not (isinstance(value, list | tuple)
+                                 and all(_is_number(v, whole) for v in value)):
+                raise ValueError(f"descriptor: {key}: expected a list of "
+                                 f"{'whole ' if whole else ''}numbers, got {repr(value)[:40]}")
+        if "area_mm2" in d and not _is_number(d["area_mm2"]):
+            raise ValueError(f"descriptor: area_mm2: expected a number, got "
+                             f"{repr(d['area_mm2'])[:40]}")
         try:
             area = float(d["area_mm2"])
             size = tuple(float(v) for v in d["size_mm"])
@@ -131,11 +151,12 @@ class ModelDescriptor:
             raise ValueError("descriptor: sizes must be positive and finite, with 2 sizes, "
                              "2 moments and 3 mean colours")
         if (bins.ndim != 1 or bins.shape != weights.shape or not 0 < len(bins) <= MAX_COLOUR_BINS
-                or bins.min() < 0 or bins.max() >= _N_BINS or not np.all(np.isfinite(weights))
+                or bins.min() < 0 or bins.max() >= _N_BINS or len(np.unique(bins)) < len(bins)
+                or not np.all(np.isfinite(weights))
                 or weights.min() < 0 or weights.max() > 1.5  # the sum cannot overflow
                 or not 0.5 < weights.sum() < 1.5):
-            raise ValueError(f"descriptor: expected 1 to {MAX_COLOUR_BINS} colour bins in "
-                             f"0..{_N_BINS - 1} with non-negative weights summing to 1")
+            raise ValueError(f"descriptor: expected 1 to {MAX_COLOUR_BINS} distinct colour bins "
+                             f"in 0..{_N_BINS - 1} with non-negative weights summing to 1")
         return cls(area, (size[0], size[1]), (moments[0], moments[1]),
                    (mean[0], mean[1], mean[2]), bins.astype(np.int32),
                    (weights / weights.sum()).astype(np.float32))
