@@ -391,6 +391,60 @@ def _bad_library(work: Path) -> None:
     (lib / "future.npz").write_bytes(_model_with(work, _set_meta("version", 99)))
 
 
+IDENTIFY = ("--stereo", "stereo.yaml", "--right", "right.png", "--left", "left.png")
+
+
+def _index_of(work: Path, library: str) -> dict[str, Any]:
+    return json.loads((work / library / "index.json").read_text())
+
+
+def _library_copy(library: str, change: Callable[[dict[str, Any]], None]
+                  ) -> Callable[[Path], None]:
+    """A ``prepare``: ``library``, a copy of ``lib`` (the model file keeps its size and
+    time, so that the index still vouches for it) whose index is changed by ``change``."""
+
+    def prepare(work: Path) -> None:
+        shutil.copytree(work / "lib", work / library, copy_function=shutil.copy2)
+        index = _index_of(work, library)
+        change(index)
+        (work / library / "index.json").write_text(json.dumps(index, indent=1) + "\n")
+
+    return prepare
+
+
+def _strip_descriptors(index: dict[str, Any]) -> None:
+    for entry in index["models"].values():
+        del entry["descriptor"]
+
+
+def _corrupt_descriptor(index: dict[str, Any]) -> None:
+    index["models"]["shirt"]["descriptor"]["colour_bins"] = "x"
+
+
+def _described_as_lib(library: str) -> Callable[[Path], str | None]:
+    """A ``verify``: ``library``'s index holds the entries of ``lib``'s, the same descriptors
+    included (described again from the same file), nothing lost."""
+
+    def verify(work: Path) -> str | None:
+        try:
+            index = _index_of(work, library)
+        except (OSError, ValueError) as exc:
+            return f"{library}/index.json unreadable ({exc})"
+        if index["models"] != _index_of(work, "lib")["models"]:
+            return f"{library}/index.json is not lib's: {sorted(index['models'])}"
+        return None
+
+    return verify
+
+
+def _still_empty(library: str) -> Callable[[Path], str | None]:
+    def verify(work: Path) -> str | None:
+        found = sorted(p.name for p in (work / library).iterdir())
+        return f"{library} holds {found}" if found else None
+
+    return verify
+
+
 def _keeps(name: str, content: str) -> tuple[Callable[[Path], None],
                                              Callable[[Path], str | None]]:
     def prepare(work: Path) -> None:
@@ -568,6 +622,19 @@ def cases() -> list[Case]:
         _case("Model library", "a text file and a newer-format model in the library",
               "models", "list", "--models", "badlib", expected_code=0, summary=_model_count,
               prepare=_bad_library),
+        _case("Model library", "an index of an older photomodel (no model descriptors): "
+              "upgraded, nothing lost", "identify", "--models", "oldlib", *IDENTIFY, "--json",
+              expected_code=0, summary=_json_found,
+              prepare=_library_copy("oldlib", _strip_descriptors),
+              verify=_described_as_lib("oldlib")),
+        _case("Model library", "a corrupt descriptor in the index (`\"colour_bins\": \"x\"`): "
+              "noted, described again", "identify", "--models", "baddesc", *IDENTIFY, "--json",
+              expected_code=0, summary=_json_found,
+              prepare=_library_copy("baddesc", _corrupt_descriptor),
+              verify=_described_as_lib("baddesc")),
+        _case("Model library", "`identify --models` on a folder without model files",
+              "identify", "--models", "nomodels", *IDENTIFY,
+              prepare=lambda w: (w / "nomodels").mkdir(), verify=_still_empty("nomodels")),
         _case("Model library", "model name with a newline", "models", "add", "--models",
               "lib_nl", "shirt.npz", "--name", "two\nlines", verify=_no_model_in("lib_nl")),
         _case("Model library", "model name with a right-to-left override", "models", "add",
