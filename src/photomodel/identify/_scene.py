@@ -85,6 +85,10 @@ class Region:
         Principal second moments, largest first.
     touches_border : bool
     pixels : int
+    lab : ndarray (pixels, 3) float32
+        Its pixels' log-opponent colours.
+    xy_mm : ndarray (pixels, 2) float32
+        Its pixels' positions on the table (camera 1's columns and rows times ``mm_per_px``).
     """
 
     area_mm2: float
@@ -94,6 +98,8 @@ class Region:
     moments_mm2: tuple[float, float]
     touches_border: bool
     pixels: int
+    lab: NDArray[np.float32]
+    xy_mm: NDArray[np.float32]
 
 
 @dataclass(frozen=True)
@@ -176,7 +182,8 @@ def _region(image: NDArray[np.float32], inside: NDArray[np.bool_], mm_per_px: fl
     return Region(area_mm2=float(len(rows) * mm_per_px**2), mm_per_px=mm_per_px,
                   colour_hist=hist, mean_lab=colours.mean(axis=0),
                   moments_mm2=(float(moments[0]), float(moments[1])), touches_border=touches,
-                  pixels=len(rows))
+                  pixels=len(rows), lab=colours.astype(np.float32),
+                  xy_mm=xy.astype(np.float32))
 
 
 def scene_regions(features: StereoFeatures, z_range_mm: tuple[float, float] = (450.0, 1000.0),
