@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import subprocess
 import sys
@@ -92,7 +93,8 @@ def build_library(work: Path, size: int, seed: int, workers: int) -> Path:
     todo = [n for n in names if not (pool / f"{n}.npz").exists()]
     if todo:
         t0 = time.perf_counter()
-        with ProcessPoolExecutor(workers) as ex:
+        spawn = multiprocessing.get_context("spawn")   # the parent may run OpenMP already
+        with ProcessPoolExecutor(workers, mp_context=spawn) as ex:
             for k, _ in enumerate(ex.map(_build_one, [(n, str(pool), seed) for n in todo],
                                          chunksize=8), 1):
                 if k % 100 == 0 or k == len(todo):
@@ -207,6 +209,9 @@ def run_size(lib: Path, scenes: list[dict[str, Any]], seed: int) -> dict[str, An
             rank = int(np.sum(evidence > evidence[i]))
         row = {"id": sc["id"], "group": sc["group"], "truth": sc["truth"],
                "answer": result.model, "score": result.score, "visible": sc["visible"],
+               "answer_evidence": next((c.evidence for c in result.candidates
+                                        if c.model == result.model), None),
+               "runner_up_score": None if result.runner_up is None else result.runner_up.score,
                "correct": result.model == sc["truth"],
                "searched": sum(c.result is not None for c in result.candidates),
                "screen_rank": rank, "identify_s": times["identify"], "cold": cold,
