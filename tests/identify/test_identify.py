@@ -14,8 +14,8 @@ from photomodel.identify import (
     identify_in_features,
     scene_regions,
 )
-from photomodel.model import describe_model
 from photomodel.locate import locate_in_features
+from photomodel.model import describe_model
 
 LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
                "fitness", "score", "seconds"}
