@@ -63,19 +63,10 @@ def _build_one(args: tuple[str, str, int]) -> str:
     path = Path(folder) / f"{name}.npz"
     if path.exists():
         return name
-    from photomodel.model import build_photo_model, save_model
-    from photomodel.sim import (
-        MODEL_DISTANCE_MM,
-        catalogue_garment,
-        model_station_camera,
-        render_model_photos,
-        scene_rng,
-    )
+    from photomodel.model import save_model
+    from photomodel.sim import station_model
 
-    camera = model_station_camera()
-    photo, background = render_model_photos(catalogue_garment(name), camera,
-                                            scene_rng(seed, "model", name))
-    model = build_photo_model(photo, background, camera, MODEL_DISTANCE_MM, name=name).model
+    model = station_model(name, seed)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     save_model(model, tmp)
     os.replace(tmp, path)

@@ -139,24 +139,15 @@ def _truth(dataset: str) -> dict[str, Any]:
 def _model(config: ExperimentConfig, garment: str) -> PhotoModel:
     """The garment's photo-model, built from its model photos (simulated or the dataset's);
     kept for 64 (config, garment) pairs (the locate benchmark's three lenses give 36)."""
-    if config.dataset is not None:
-        root = Path(config.dataset)
-        camera = load_camera(root / "model_camera.yaml")
-        distance = load_distance_mm(root / "model_camera.yaml") or 400.0
-        photo = read_color_image(root / "models" / garment / "photo.bmp")
-        background = read_color_image(root / "models" / garment / "background.bmp")
-    else:
-        from photomodel.sim import (
-            MODEL_DISTANCE_MM,
-            catalogue_garment,
-            model_station_camera,
-            render_model_photos,
-            scene_rng,
-        )
+    if config.dataset is None:
+        from photomodel.sim import station_model
 
-        camera, distance = model_station_camera(), MODEL_DISTANCE_MM
-        photo, background = render_model_photos(catalogue_garment(garment), camera,
-                                                scene_rng(config.seed, "model", garment))
+        return station_model(garment, config.seed)
+    root = Path(config.dataset)
+    camera = load_camera(root / "model_camera.yaml")
+    distance = load_distance_mm(root / "model_camera.yaml") or 400.0
+    photo = read_color_image(root / "models" / garment / "photo.bmp")
+    background = read_color_image(root / "models" / garment / "background.bmp")
     return build_photo_model(photo, background, camera, distance, name=garment).model
 
 

@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation
 
 from photomodel.camera import StereoRig
 from photomodel.geometry import in_plane_angle_rad, invert_transform, make_transform
-from photomodel.model import PhotoModel, build_photo_model
+from photomodel.model import PhotoModel
 from photomodel.robot._arm import ArmModel, load_arm
 from photomodel.robot._handeye import calibrate_hand_eye, hand_eye_error
 from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
@@ -218,18 +218,9 @@ def make_cell(config: CellConfig) -> CellSetup:
 
 @lru_cache(maxsize=16)
 def _photo_model(garment: str, seed: int) -> PhotoModel:
-    from photomodel.sim import (
-        MODEL_DISTANCE_MM,
-        catalogue_garment,
-        model_station_camera,
-        render_model_photos,
-        scene_rng,
-    )
+    from photomodel.sim import station_model
 
-    camera = model_station_camera()
-    photo, background = render_model_photos(catalogue_garment(garment), camera,
-                                            scene_rng(seed, "model", garment))
-    return build_photo_model(photo, background, camera, MODEL_DISTANCE_MM, name=garment).model
+    return station_model(garment, seed)
 
 
 @dataclass(frozen=True)

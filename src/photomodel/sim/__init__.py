@@ -81,6 +81,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "simulate_scene",
         ],
         "_sheet": ["contact_sheet"],
+        "_station": ["station_model"],
         "_tables": ["make_table"],
         "_textures": [
             "MODEL_GREEN_BGR",
@@ -185,6 +186,7 @@ __all__ = [
     "render_view_linear",
     "scene_rng",
     "simulate_scene",
+    "station_model",
     "stripe_fabric",
     "table_plane",
     "uniform_plane",
