@@ -75,8 +75,8 @@ def test_identify_says_none_on_an_empty_table(identify_data: IdentifyData) -> No
 
 def test_a_model_searched_alone_matches_locate_in_features(identify_data: IdentifyData
                                                            ) -> None:
-    """With one candidate and no screen, identify's pose is the plain locate's from level 3's
-    scan (identify scans every candidate itself, without ``locate``'s coarse scan)."""
+    """With one candidate and no screen, identify's pose is the plain locate's (its coarse
+    scan first, as ``locate`` runs it), with the candidate's own seed."""
     d = identify_data
     features = StereoFeatures(d.rig, d.scene_right, d.scene_left)
     model = d.models[1]
@@ -86,8 +86,7 @@ def test_a_model_searched_alone_matches_locate_in_features(identify_data: Identi
     from photomodel.identify._identify import _model_rng
 
     base = int(np.random.default_rng(7).integers(0, 2**62))
-    plain = locate_in_features(model, features, rng=_model_rng(base, model.name, 0),
-                               coarse_scan=None)
+    plain = locate_in_features(model, features, rng=_model_rng(base, model.name, 0))
     np.testing.assert_allclose(res.best.T_cam1_model, plain.T_cam1_model)
     assert res.score == pytest.approx(plain.score)
 

@@ -13,8 +13,9 @@ For one stereo pair and a library of any size:
    (:func:`~photomodel.locate.locate_in_features`), best first, each with its own seed derived
    from the call's seed, the model's name and the attempt. How many adapts to the evidence:
    those within ``candidate_margin`` of the best screening evidence (at least
-   ``min_evidence``), at most ``max_candidates``, those whose scan is trusted first
-   (``trusted_first``: their colours agree somewhere at the station's light), at most
+   ``min_evidence``), at most ``max_candidates``, those whose coarse scan
+   (:data:`~photomodel.locate.COARSE_SCAN`) is trusted first (``trusted_first``: their colours
+   agree somewhere at the station's light), at most
    ``untrusted_candidates`` of the others, and once one is found only those that the screen
    could not tell from it (within ``evidence_margin`` of its evidence). A model is loaded
    and prepared only when it is a candidate (:class:`~photomodel.identify.PreparedModels`
@@ -55,7 +56,7 @@ from photomodel.fitness import (
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
 from photomodel.identify._scene import SceneConfig, scene_regions
-from photomodel.locate import LocateResult, locate_in_features
+from photomodel.locate import COARSE_SCAN, LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.model._descriptor import ModelDescriptor, describe_model
@@ -304,13 +305,13 @@ def identify_with_bank(
         r = locate_in_features(models[i], features, space=space,
                                rng=_model_rng(base, bank.names[i], attempt),
                                min_score=min_score, t0=time.perf_counter(), retries=0,
-                               scan=scans[i], second_look=attempt > 0)
+                               second_look=attempt > 0)
         if i not in located or r.score > located[i].score:
             located[i] = r
 
     for i in chosen:
         models[i] = prepared(i)
-        scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper)
+        scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper, COARSE_SCAN)
     trusted = [i for i in chosen if scans[i].trusted or not c.trusted_first]
     untrusted = [i for i in chosen if i not in trusted][: c.untrusted_candidates]
     for group in (trusted, untrusted):
