@@ -164,14 +164,25 @@ def _wrap_deg(angle: float) -> float:
     return float(-((-angle + 180.0) % 360.0 - 180.0))
 
 
+@lru_cache(maxsize=2)
+def _identifier(library: tuple[str, ...], seed: int, conditions: tuple[str, ...],
+                min_score: float, max_candidates: int) -> Any:
+    """An Identifier of the library's station models, kept for the trials of a process (a
+    catalogue's models are built once, prepared when they are candidates)."""
+    from photomodel.identify import Identifier, IdentifyConfig
+
+    base = ExperimentConfig(seed=seed)
+    models = [_model(base, name) for name in library]
+    return Identifier(models, _rig(conditions), config=IdentifyConfig(min_score=min_score,
+                                                         max_candidates=max_candidates),
+                      prepared_models=min(len(models), 32))
+
+
 def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -> dict[str, Any]:
     """Simulate the trial's scene, identify, and return its record (``IDENTIFY_COLUMNS``)."""
-    from photomodel.identify import IdentifyConfig, identify
     from photomodel.sim import catalogue_garment, parse_conditions, scene_rng, simulate_scene
 
     rig = _rig(tuple(config.conditions) + tuple(config.negatives))
-    base = ExperimentConfig(seed=config.seed)
-    models = [_model(base, name) for name in config.library]
     target = None if trial.garment is None else catalogue_garment(trial.garment)
     shot = simulate_scene(target, rig, parse_conditions(trial.condition),
                           scene_rng(config.seed, trial.condition, trial.garment or "",
@@ -181,10 +192,11 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
         from photomodel.identify import load_threshold
 
         min_score = load_threshold().min_score
-    result = identify(models, rig, shot.right_bgr, shot.left_bgr,
-                      config=IdentifyConfig(min_score=min_score,
-                                            max_candidates=config.max_candidates),
-                      rng=scene_rng(config.seed, "identify", trial.trial_id))
+    identifier = _identifier(tuple(config.library), config.seed,
+                             tuple(config.conditions) + tuple(config.negatives),
+                             float(min_score), config.max_candidates)
+    result = identifier(shot.right_bgr, shot.left_bgr,
+                        rng=scene_rng(config.seed, "identify", trial.trial_id))
     nan = float("nan")
     row: dict[str, Any] = {
         "trial_id": trial.trial_id, "truth": trial.garment or NONE,
@@ -207,8 +219,8 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
     }
     T_true = shot.T_cam1_model
     if T_true is not None:
-        true = next(c for c in result.candidates if c.model == trial.garment)
-        if true.result is not None:
+        true = next((c for c in result.candidates if c.model == trial.garment), None)
+        if true is not None and true.result is not None:
             T = true.result.T_cam1_model
             row.update(true_searched=1, true_score=true.result.score,
                        true_err_pos_mm=float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
