@@ -40,7 +40,7 @@ from numba import prange
 from numpy.typing import NDArray
 
 from photomodel._jit import njit
-from photomodel.identify._scene import SceneRegions
+from photomodel.identify._scene import Region, SceneRegions
 from photomodel.model._descriptor import (
     COLOUR_BIN,
     COLOUR_GRID_SHAPE,
@@ -79,7 +79,7 @@ class BankConfig:
     shape_weight: float = 0.3
     light_l: tuple[float, float] = (-1.3, 0.8)
     light_t: tuple[float, float] = (-0.4, 0.9)
-    refine: int = 30
+    refine: int = 16
 
 
 class DescriptorBank:
@@ -142,29 +142,38 @@ class DescriptorBank:
         grid = np.asarray(COLOUR_GRID_SHAPE)
         steps = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"),
                          -1).reshape(-1, 3)
+        cells0 = [self._cells(r.lab) for r in scene.regions]   # each region's bins, no shift
+        palette = np.zeros(int(np.prod(grid)), dtype=bool)
         for m in np.argsort(-evidence, kind="stable")[: c.refine]:
-            used = self.weights[m] > 0.01
-            near = (self.bins[m][used][:, None, :] + steps[None]).reshape(-1, 3)
+            near = (self.bins[m][self.weights[m] > 0.01][:, None, :] + steps[None]).reshape(-1, 3)
             near = near[np.all((near >= 0) & (near < grid), axis=1)]
-            palette = np.unique(np.ravel_multi_index(tuple(near.T), COLOUR_GRID_SHAPE))
-            best = -1.0
-            for region in scene.regions:
-                for shift in (np.zeros(3), self._light_shift(m, region.mean_lab, c)):
-                    cells = np.round(colour_grid_coords(region.lab - shift)).astype(np.int64)
-                    flat = np.ravel_multi_index(tuple(cells.T), COLOUR_GRID_SHAPE)
-                    explained = np.isin(flat, palette, assume_unique=False)
-                    n = int(np.count_nonzero(explained))
-                    if n < 3:
-                        continue
-                    v = n * region.mm_per_px**2 / self.area_mm2[m]
-                    xy = region.xy_mm[explained].astype(np.float64)
-                    moments = np.maximum(np.sort(np.linalg.eigvalsh(np.cov(xy.T)))[::-1], 1.0)
-                    shape = min(float(np.abs(np.log(moments / self.moments_mm2[m])).sum())
-                                / 0.5, 1.0)
-                    score = min(v, 1.0) - 0.5 * max(np.log(v), 0.0) - 0.3 * shape * min(v, 1.0)
-                    best = max(best, score)
-            out[m] = 0.5 * evidence[m] + 0.5 * max(best, 0.0)
+            palette[:] = False
+            palette[np.ravel_multi_index(tuple(near.T), COLOUR_GRID_SHAPE)] = True
+            best = 0.0
+            for region, cells in zip(scene.regions, cells0, strict=True):
+                shift = self._light_shift(m, region.mean_lab, c)
+                for explained in (palette[cells], palette[self._cells(region.lab - shift)]):
+                    best = max(best, self._explained_score(m, region, explained))
+            out[m] = 0.5 * evidence[m] + 0.5 * best
         return np.clip(out, 0.0, 1.0)
+
+    @staticmethod
+    def _cells(lab: NDArray[np.floating]) -> NDArray[np.int64]:
+        """Flat grid bins (N,) of colours (N, 3)."""
+        cells = np.round(colour_grid_coords(lab)).astype(np.int64)
+        return np.ravel_multi_index(tuple(cells.T), COLOUR_GRID_SHAPE)
+
+    def _explained_score(self, m: int, region: Region, explained: NDArray[np.bool_]) -> float:
+        """``min(v, 1) - 0.5 max(ln v, 0) - 0.3 shape min(v, 1)`` of model ``m`` for the
+        region pixels it explains (see the module docstring)."""
+        n = int(np.count_nonzero(explained))
+        if n < 3:
+            return 0.0
+        v = n * region.mm_per_px**2 / self.area_mm2[m]
+        xy = region.xy_mm[explained].astype(np.float64)
+        moments = np.maximum(np.sort(np.linalg.eigvalsh(np.cov(xy.T)))[::-1], 1.0)
+        shape = min(float(np.abs(np.log(moments / self.moments_mm2[m])).sum()) / 0.5, 1.0)
+        return min(v, 1.0) - 0.5 * max(float(np.log(v)), 0.0) - 0.3 * shape * min(v, 1.0)
 
     def screen(self, scene: SceneRegions, config: BankConfig | None = None
                ) -> NDArray[np.float64]:
