@@ -284,6 +284,70 @@ def cli_identify(lib: Path, scene: dict[str, Any], repeats: int = 5) -> dict[str
             "truth": scene["truth"]}
 
 
+def _rss_mb(pid: int) -> float:
+    """Resident memory of process ``pid`` (MB, from /proc)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def service_memory(lib: Path, scenes: list[dict[str, Any]], requests: int = 20
+                   ) -> dict[str, Any]:
+    """``photomodel serve`` on ``lib`` as its own process: seconds until ``/health`` says ok,
+    resident memory then, and after ``requests`` ``/identify`` requests on loopback."""
+    import socket
+    import urllib.request
+
+    import cv2
+
+    from photomodel.camera import save_stereo
+    from photomodel.sim import hand_stereo_rig
+
+    def png(image: np.ndarray) -> bytes:
+        return cv2.imencode(".png", image)[1].tobytes()
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    exe = Path(sys.executable).with_name("photomodel")
+    with tempfile.TemporaryDirectory() as tmp:
+        stereo = Path(tmp) / "stereo.yaml"
+        save_stereo(stereo, hand_stereo_rig())
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([str(exe), "serve", "--stereo", str(stereo), "--models",
+                                 str(lib), "--port", str(port), "--log-level", "warning"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            url = f"http://127.0.0.1:{port}"
+            health: dict[str, Any] = {}
+            while time.perf_counter() - t0 < 600:
+                try:
+                    with urllib.request.urlopen(f"{url}/health", timeout=5) as r:
+                        health = json.loads(r.read())
+                    if health.get("status") == "ok":
+                        break
+                except OSError:
+                    pass
+                time.sleep(0.2)
+            ready_s = time.perf_counter() - t0
+            rss_ready = _rss_mb(proc.pid)
+            import httpx
+
+            with httpx.Client(timeout=120) as client:
+                for sc in (scenes * requests)[:requests]:
+                    files = {"right": ("r.png", png(sc["right"])),
+                             "left": ("l.png", png(sc["left"]))}
+                    client.post(f"{url}/identify", files=files).raise_for_status()
+                health = client.get(f"{url}/health").json()
+            return {"ready_s": ready_s, "rss_ready_mb": rss_ready,
+                    "rss_after_mb": _rss_mb(proc.pid), "requests": requests,
+                    "prepared": health.get("prepared"), "models": health.get("models")}
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--sizes", default="100,1000")
@@ -293,6 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--cli", action="store_true", help="also time one-shot CLI identify")
+    p.add_argument("--service", action="store_true",
+                   help="also measure the service's warm-up and memory per library")
     p.add_argument("--work", type=Path, default=Path("build/bench-catalogue"))
     p.add_argument("--out", type=Path,
                    default=Path(__file__).parent / "results" / "catalogue.json")
@@ -306,6 +372,8 @@ def main(argv: list[str] | None = None) -> int:
         results[str(n)] = run_size(libs[n], scenes, args.seed)
         if args.cli:
             results[str(n)]["cli_identify"] = cli_identify(libs[n], scenes[0])
+        if args.service:
+            results[str(n)]["service"] = service_memory(libs[n], scenes)
         r = results[str(n)]
         print(f"{n} models: top-1 {r['top1']:.3f} {r['top1_by_group']}, false accepts "
               f"{r['false_accepts']}, identify/locate {r['identify_over_locate']:.2f}, screen "
