@@ -132,10 +132,11 @@ def _table_mask(image: NDArray[np.float32], config: SceneConfig) -> NDArray[np.b
     pixels = band[close.reshape(-1)].astype(np.float64)
     mean = pixels.mean(axis=0)
     cov = np.cov(pixels.T) + np.eye(3) * (0.25 * config.min_distance) ** 2
-    inv = np.linalg.inv(cov)
-    d = image.reshape(-1, 3).astype(np.float64) - mean
-    maha = np.einsum("ij,jk,ik->i", d, inv, d)
-    far = (maha > config.table_sigma**2) & (np.linalg.norm(d, axis=1) > config.min_distance)
+    whiten = np.linalg.inv(np.linalg.cholesky(cov)).T.astype(np.float32)   # L^-T
+    d = image.reshape(-1, 3) - mean.astype(np.float32)
+    y = d @ whiten                                   # Mahalanobis distance = |y|
+    far = ((y * y).sum(axis=1) > config.table_sigma**2) & (
+        (d * d).sum(axis=1) > config.min_distance**2)
     mask = far.reshape(h, w).astype(np.uint8)
     kernel = np.ones((3, 3), np.uint8)
     mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
