@@ -18,6 +18,7 @@ from photomodel.fitness import (
     model_samples,
     relight_scan,
     scan_flat_poses,
+    scan_spacing,
 )
 from photomodel.fitness._soft import level_spacing
 from photomodel.geometry import (
@@ -422,6 +423,20 @@ def test_the_scan_transforms_in_numba_equal_scipy_fft() -> None:
             assert best[0, 2] == maps[d, a, :sizes[d, 0], :sizes[d, 1]].max()
 
 
+def test_the_kernels_spectra_are_scipys_conjugated_to_the_bit() -> None:
+    """The kernels' spectra as a model is prepared (one thread): ``conj(scipy.fft.rfft2)`` of
+    every plane, to the bit (signed zeros included), on sparse planes as the splats are."""
+    rng = np.random.default_rng(9)
+    planes = np.zeros((4, 3, 21, 30), dtype=np.float32)
+    planes[..., :5, :] = rng.normal(size=(4, 3, 5, 30))
+    planes[..., -4:, 3:9] = rng.normal(size=(4, 3, 4, 6))
+    planes[1, 2] = 0.0
+    spectra = _scan._conj_spectra(planes)
+    assert spectra.dtype == np.complex64 and spectra.shape == (4, 3, 21, 16)
+    expected = np.conj(scipy.fft.rfft2(planes))
+    np.testing.assert_array_equal(spectra.view(np.uint32), expected.view(np.uint32))
+
+
 def test_the_carried_agreements_match_cv2_remap() -> None:
     """Both cameras' agreement images carried onto a depth's grid: the mean of two
     ``cv2.remap`` calls per colour (bilinear, constant border 0), pixels off the image and
@@ -461,6 +476,6 @@ def test_a_level_4_scan_with_level_3_points_finds_small_and_printed_garments(gar
         # within half an angle step, and the true pose's small tilt from the table
         assert np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) < config.theta_step_deg / 2 + 1.5
     # Its kernels are those of level 3's points, kept apart from the plain level-4 scan's.
-    spacing = _scan._scan_spacing(coarse)
+    spacing = scan_spacing(coarse)
     assert spacing.grid_mm == level_spacing(3).grid_mm
     assert spacing.blur_mm == level_spacing(4).blur_mm

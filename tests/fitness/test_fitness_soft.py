@@ -610,3 +610,36 @@ def test_exp_neg_matches_exp_over_the_agreements_range() -> None:
     assert many(np.array([0.0]))[0] == 1.0
     far = many(np.array([60.0, 100.0, 1e6]))
     assert np.all(far > 0.0) and np.all(far < 1e-25)
+
+
+def test_blank_features_have_a_pairs_sizes_and_cameras_without_images() -> None:
+    """What a preparation reads of a pair: the rig, the levels, every level's size (as
+    ``cv2.pyrDown`` halves odd sizes) and its cameras; a rig without image sizes is refused."""
+    from dataclasses import replace
+
+    from photomodel.camera import StereoRig
+
+    _, rig, right, left, _, _ = _case("No.6")
+    for levels in (1, 5):
+        pair = StereoFeatures(rig, right, left, levels=levels)
+        blank = StereoFeatures.blank(rig, levels=levels)
+        assert blank.levels == pair.levels and blank.rig is rig
+        assert blank.match == pair.match
+        for ours, theirs in zip(blank.pyramids, pair.pyramids, strict=True):
+            assert [a.shape for a in ours] == [a.shape for a in theirs]
+            assert all(a.dtype == np.float32 and a.flags.c_contiguous and not a.any()
+                       for a in ours)
+        for level in range(levels):
+            np.testing.assert_array_equal(blank.camera_matrices(level)[1],
+                                          pair.camera_matrices(level)[1])
+    odd = StereoRig(replace(rig.cam1, width_px=641, height_px=479),
+                    replace(rig.cam2, width_px=321, height_px=241), rig.R, rig.T)
+    images = (np.zeros((479, 641, 3), np.uint8), np.zeros((241, 321, 3), np.uint8))
+    for ours, theirs in zip(StereoFeatures.blank(odd).pyramids,
+                            StereoFeatures(odd, *images).pyramids, strict=True):
+        assert [a.shape for a in ours] == [a.shape for a in theirs]
+    unsized = StereoRig(replace(rig.cam1, width_px=0, height_px=0), rig.cam2, rig.R, rig.T)
+    with pytest.raises(ValueError, match="rig"):
+        StereoFeatures.blank(unsized)
+    with pytest.raises(ValueError, match="levels"):
+        StereoFeatures.blank(rig, levels=0)

@@ -16,7 +16,7 @@ from photomodel.fitness import (
     _scan,
     prepare_scan,
 )
-from photomodel.locate import Locator, prepare_model
+from photomodel.locate import COARSE_SCAN, Locator, prepare_model
 from photomodel.search import PyramidConfig, SearchSpace
 
 
@@ -66,6 +66,29 @@ def test_a_locator_prepares_its_model_once_and_no_pair_builds_more(
     assert not locate.prepare(StereoFeatures(rig, right, left))
     other = Locator(model, rig)        # another locator prepares its own state
     assert counting and other.prepared is not locate.prepared
+
+
+def test_a_locator_prepares_what_its_first_pair_would_to_the_bit() -> None:
+    """The locator prepares on blank features (no images): the samples, their arrays and
+    the scans' plans are those a preparation on a real pair of the rig builds."""
+    model, rig, right, left, _, _ = _inputs()
+    locator = Locator(model, rig)
+    on_pair = PreparedModel(model)
+    prepare_model(on_pair, StereoFeatures(rig, right, left), space=locator.space,
+                  scans=(COARSE_SCAN, ScanConfig()))
+    ours, theirs = locator.prepared.kept._values, on_pair.kept._values
+    assert ours.keys() == theirs.keys()
+    for key, value in ours.items():
+        if isinstance(value, _samples.ModelSamples):
+            for name in ("p_in", "f_in", "p_out", "f_out", "table_out"):
+                np.testing.assert_array_equal(getattr(value, name),
+                                              getattr(theirs[key], name))
+    plans, other = ours["scan plans"], theirs["scan plans"]
+    assert list(plans) == list(other)
+    for key, groups in plans.items():
+        for group, same in zip(groups, other[key], strict=True):
+            for name in ("kernels", "depths", "sizes", "maps", "rays"):
+                np.testing.assert_array_equal(getattr(group, name), getattr(same, name))
 
 
 def test_calls_in_threads_give_the_same_poses_as_in_turn() -> None:

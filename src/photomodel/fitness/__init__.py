@@ -13,8 +13,9 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_paper": ["FITNESS_PRESETS", "PaperFitness", "PaperVotes", "make_fitness"],
         "_prepared": ["PreparedModel", "as_prepared"],
         "_protocols": ["KernelFitness", "KernelNormalEquations"],
-        "_samples": ["ModelSamples", "SampleSpacing", "model_samples"],
-        "_scan": ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses"],
+        "_samples": ["ModelSamples", "SampleDrawer", "SampleSpacing", "model_samples"],
+        "_scan": ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses",
+                  "scan_spacing"],
         "_soft": ["SoftFitness", "SoftMatch", "StereoFeatures", "level_spacing"],
     },
 )
@@ -30,6 +31,7 @@ __all__ = [
     "PaperFitness",
     "PaperVotes",
     "PreparedModel",
+    "SampleDrawer",
     "SampleSpacing",
     "ScanConfig",
     "ScanResult",
@@ -50,5 +52,6 @@ __all__ = [
     "prepare_scan",
     "relight_scan",
     "scan_flat_poses",
+    "scan_spacing",
     "score_terms",
 ]

@@ -19,8 +19,9 @@ pyramid level are drawn here from the photo instead of the fixed S_in / S_out of
   a print's colours mix in the sensor's values, not in their logarithms), then by the
   feature smoothing and the pyramid in the log-opponent features (``blur_mm``).
 
-The point geometry does not depend on the blurs: it is computed once per model and spacing,
-the colours once per blur.
+The point geometry does not depend on the blurs: it is computed once per model and spacing
+(from one outline of the mask for every spacing), the colours once per blur (from one blurred
+photo per camera blur for every spacing a :class:`SampleDrawer` draws).
 
 Offset points that land on the wrong side of the edge (at concave corners, in narrow gaps)
 are dropped by a distance-transform check.
@@ -28,8 +29,9 @@ are dropped by a distance-transform check.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, partial
 
 import cv2
 import numpy as np
@@ -43,7 +45,7 @@ from photomodel.image._features import linear_intensity, log_opponent
 from photomodel.image._sample import sample_bilinear
 from photomodel.model import PhotoModel
 
-__all__ = ["ModelSamples", "SampleSpacing", "model_samples"]
+__all__ = ["ModelSamples", "SampleDrawer", "SampleSpacing", "model_samples"]
 
 
 @dataclass(frozen=True)
@@ -164,17 +166,10 @@ def model_samples(model: PhotoModel | PreparedModel, spacing: SampleSpacing) -> 
 
     Kept in a :class:`~photomodel.fitness.PreparedModel` (per spacing; the points are shared
     by every blur of one spacing), so a prepared model is sampled once, not once per stereo
-    pair.
+    pair. A :class:`SampleDrawer` draws several spacings for less.
     """
     prepared = as_prepared(model)
-    shape = spacing.geometry
-
-    def coloured() -> ModelSamples:
-        geometry = prepared.kept.get(("geometry", shape),
-                                     lambda: _geometry(prepared.model, shape))
-        return _coloured(prepared.model, geometry, spacing)
-
-    return prepared.kept.get(("samples", spacing), coloured)
+    return prepared.kept.get(("samples", spacing), partial(SampleDrawer(prepared).drawn, spacing))
 
 
 def _lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -182,63 +177,183 @@ def _lift(xy: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.ascontiguousarray(np.column_stack([xy, np.zeros(len(xy))]))
 
 
-def _garment_blur(image: NDArray[np.float32], mask: NDArray[np.float32],
-                  sigma_px: float) -> NDArray[np.float32]:
-    """Gaussian blur of ``image`` (H, W, 3) over the garment only (normalised convolution
-    with ``mask``): the model station's backdrop must not bleed into the garment's colours,
-    it is not what lies around the garment in the scene."""
-    if sigma_px <= 0:
-        return image
-    weight = cv2.GaussianBlur(mask, (0, 0), sigma_px)
-    blurred = cv2.GaussianBlur(image * mask[..., None], (0, 0), sigma_px)
-    return blurred / np.maximum(weight, 1e-3)[..., None]
+@dataclass(frozen=True)
+class _Outline:
+    """What every spacing's points derive from: the silhouette's edge and distance maps.
+
+    Attributes
+    ----------
+    camera : PinholeCamera
+        The model station's camera.
+    distance_mm : float
+        Its distance to the model plane.
+    centroid : ndarray (2,)
+        The model origin in the camera frame (x, y mm).
+    origin : ndarray (2,)
+        The crop's corner in the station image (u, v pixels).
+    px_per_mm : float
+        Photo pixels per mm on the garment.
+    edge_mm : ndarray (K, 2)
+        The silhouette's longest 0.5 iso-line (mask smoothed by one pixel, sub-pixel), in
+        the model frame (x, y mm).
+    dist_in, dist_out : ndarray (H + 4, W + 4) float32
+        Each pixel's distance (pixels) to the nearest pixel off the garment (``dist_in``, 0
+        off it) and on it (``dist_out``, 0 on it), the mask padded by ``_PAD`` pixels a side.
+    """
+
+    camera: PinholeCamera
+    distance_mm: float
+    centroid: NDArray[np.float64]
+    origin: NDArray[np.float64]
+    px_per_mm: float
+    edge_mm: NDArray[np.float64]
+    dist_in: NDArray[np.float32]
+    dist_out: NDArray[np.float32]
+
+    def to_crop(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Photo-crop pixels (N, 2) (u, v) of model-plane points (N, 2) (x, y mm)."""
+        pts = np.column_stack([xy + self.centroid, np.full(len(xy), self.distance_mm)])
+        return self.camera.project(pts) - self.origin
 
 
-def _coloured(model: PhotoModel, geometry: _Geometry, spacing: SampleSpacing) -> ModelSamples:
+_PAD = 2
+"""Pixels of padding around the mask: room for contours at the crop's edge."""
+
+
+def _outline_of(model: PhotoModel) -> _Outline:
+    """:class:`_Outline` of ``model``'s mask."""
+    camera, distance_mm, centroid = _model_camera(model)
+    origin = np.asarray(model.crop_origin_px, dtype=np.float64)
+    px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
+    mask = np.pad(model.mask.astype(np.uint8), _PAD)
+    soft = cv2.GaussianBlur(mask.astype(np.float32), (0, 0), 1.0)
+    contour = max(find_contours(soft, 0.5), key=len)[:, ::-1] - float(_PAD)  # (u, v), crop
+    edge_mm = camera.undistort_pixels(contour + origin) * distance_mm - centroid
+    return _Outline(camera, distance_mm, centroid, origin, px_per_mm, edge_mm,
+                    cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE),
+                    cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE))
+
+
+class SampleDrawer:
+    """Draws one model's samples at several spacings (:func:`model_samples` for each), what
+    they share computed once: the mask's outline and distance maps (every spacing), the photo
+    under each camera blur and its log-opponent features (every spacing of that blur), the
+    blurred mask (every spacing of that blur width).
+
+    It holds images of the photo's size (a few MB): make one for a preparation
+    (:func:`~photomodel.locate.prepare_model` does) and drop it after; the samples it draws
+    are kept in the PreparedModel. One thread at a time.
+
+    Parameters
+    ----------
+    model : PhotoModel or PreparedModel
+        Where the samples are kept (a bare PhotoModel keeps them in a PreparedModel of its
+        own, :attr:`prepared`).
+    """
+
+    def __init__(self, model: PhotoModel | PreparedModel) -> None:
+        self.prepared = as_prepared(model)
+        self._weights: dict[float, NDArray[np.float32]] = {}
+        self._features: tuple[float, NDArray[np.float32]] | None = None
+
+    def draw(self, spacings: Iterable[SampleSpacing]) -> None:
+        """Draw and keep the samples at each of ``spacings`` not drawn before."""
+        kept = self.prepared.kept
+        todo = [s for s in dict.fromkeys(spacings) if ("samples", s) not in kept]
+        for spacing in sorted(todo, key=lambda s: s.optics_blur_mm):   # a camera blur at a time
+            kept.get(("samples", spacing), partial(self.drawn, spacing))
+
+    def drawn(self, spacing: SampleSpacing) -> ModelSamples:
+        """The samples at ``spacing``, drawn now (their points kept per geometry, the samples
+        not kept: :meth:`draw` keeps them)."""
+        shape = spacing.geometry
+        geometry = self.prepared.kept.get(("geometry", shape),
+                                          lambda: _geometry(self._outline, shape))
+        return _coloured(self, geometry, spacing)
+
+    @cached_property
+    def _outline(self) -> _Outline:
+        """The mask's :class:`_Outline`."""
+        return _outline_of(self.prepared.model)
+
+    @cached_property
+    def _mask(self) -> NDArray[np.float32]:
+        """The garment's mask (H, W) as 0 / 1 float32."""
+        return self.prepared.model.mask.astype(np.float32)
+
+    @cached_property
+    def _mask3(self) -> NDArray[np.float32]:
+        """The mask repeated for three channels (H, W, 3): products and quotients with images
+        of three channels then run without broadcasting (several times faster, the same
+        values)."""
+        return _three(self._mask)
+
+    @cached_property
+    def _masked_photo(self) -> NDArray[np.float32]:
+        """The photo (H, W, 3) float32 (B, G, R) times the mask."""
+        return self.prepared.model.photo_bgr.astype(np.float32) * self._mask3
+
+    def colours(self, optics_sigma_px: float, sigma_px: float) -> NDArray[np.float32]:
+        """Log-opponent features (H, W, 3) of the photo blurred over the garment only: by
+        ``optics_sigma_px`` in grey levels (0: none), rounded to grey levels, then by
+        ``sigma_px`` in the features. The last camera blur's features are kept for the next
+        call."""
+        if self._features is None or self._features[0] != optics_sigma_px:
+            photo = self.prepared.model.photo_bgr
+            if optics_sigma_px > 0:
+                blurred = self._garment_blur(self._masked_photo, optics_sigma_px)
+                photo = np.clip(np.rint(blurred, out=blurred), 0, 255, out=blurred
+                                ).astype(np.uint8)
+            features = log_opponent(photo)
+            self._features = (optics_sigma_px, np.multiply(features, self._mask3, out=features))
+        return self._garment_blur(self._features[1], sigma_px)
+
+    def _garment_blur(self, masked: NDArray[np.float32], sigma_px: float
+                      ) -> NDArray[np.float32]:
+        """Gaussian blur (H, W, 3) over the garment only of an image ``masked`` (H, W, 3)
+        already multiplied by the mask: normalised convolution, the model station's backdrop
+        must not bleed into the garment's colours (it is not what lies around the garment in
+        the scene). The mask's blur is kept per ``sigma_px``."""
+        if sigma_px not in self._weights:
+            weight = cv2.GaussianBlur(self._mask, (0, 0), sigma_px)
+            self._weights[sigma_px] = _three(np.maximum(weight, 1e-3, out=weight))
+        blurred = cv2.GaussianBlur(masked, (0, 0), sigma_px)
+        return np.divide(blurred, self._weights[sigma_px], out=blurred)
+
+
+def _three(image: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``image`` (H, W) repeated for three channels (H, W, 3)."""
+    return cv2.merge([image, image, image])
+
+
+def _coloured(drawer: SampleDrawer, geometry: _Geometry, spacing: SampleSpacing
+              ) -> ModelSamples:
     """The samples of ``geometry`` with the photo's colours under ``spacing``'s blurs."""
-    mask = model.mask.astype(np.float32)
-    photo = model.photo_bgr
-    if spacing.optics_blur_mm > 0:
-        blurred = _garment_blur(photo.astype(np.float32), mask,
-                                spacing.optics_blur_mm * geometry.px_per_mm)
-        photo = np.clip(np.rint(blurred), 0, 255).astype(np.uint8)
-    colours = _garment_blur(log_opponent(photo), mask,
-                            max(spacing.blur_mm * geometry.px_per_mm, 0.3))
+    optics_px = spacing.optics_blur_mm * geometry.px_per_mm if spacing.optics_blur_mm > 0 \
+        else 0.0
+    colours = drawer.colours(optics_px, max(spacing.blur_mm * geometry.px_per_mm, 0.3))
     f_in = np.ascontiguousarray(sample_bilinear(colours, geometry.uv_in), dtype=np.float64)
     return ModelSamples(geometry.p_in, f_in, geometry.p_out,
                         np.ascontiguousarray(f_in[geometry.nearest_in]), geometry.table_out)
 
 
-def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
-    camera, distance_mm, centroid = _model_camera(model)
-    origin = np.asarray(model.crop_origin_px, dtype=np.float64)
-    px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
-
-    def to_model(uv_crop: NDArray[np.float64]) -> NDArray[np.float64]:
-        return camera.undistort_pixels(uv_crop + origin) * distance_mm - centroid
-
-    def to_crop(xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        pts = np.column_stack([xy + centroid, np.full(len(xy), distance_mm)])
-        return camera.project(pts) - origin
-
-    mask = np.pad(model.mask.astype(np.uint8), 2)  # room for contours at the crop's edge
-    pad = np.array([2.0, 2.0])
-    soft = cv2.GaussianBlur(mask.astype(np.float32), (0, 0), 1.0)
-    contour = max(find_contours(soft, 0.5), key=len)[:, ::-1] - pad  # (u, v) in the crop
-    edge = _resample_closed(to_model(contour), spacing.ring_step_mm)
+def _geometry(outline: _Outline, spacing: SampleSpacing) -> _Geometry:
+    """The sample points of ``spacing`` around and inside ``outline``."""
+    px_per_mm = outline.px_per_mm
+    pad = np.array([float(_PAD), float(_PAD)])
+    edge = _resample_closed(outline.edge_mm, spacing.ring_step_mm)
     tangent = np.roll(edge, -1, axis=0) - np.roll(edge, 1, axis=0)
     normal = np.column_stack([tangent[:, 1], -tangent[:, 0]])
     normal /= np.linalg.norm(normal, axis=1, keepdims=True) + 1e-12
     # Orient normals outwards: a step along them must leave the mask.
-    dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    probe = sample_bilinear(dist_in, to_crop(edge + 3.0 * normal / px_per_mm) + pad)[:, 0]
-    if np.mean(probe > 0) > 0.5:
+    dist_in, dist_out = outline.dist_in, outline.dist_out
+    probe = sample_bilinear(dist_in, outline.to_crop(edge + 3.0 * normal / px_per_mm) + pad)
+    if np.mean(probe[:, 0] > 0) > 0.5:
         normal = -normal
 
     def keep(xy: NDArray[np.float64], dist: NDArray[np.float32], d_mm: float
              ) -> NDArray[np.bool_]:
-        d = sample_bilinear(dist, to_crop(xy) + pad)[:, 0] / px_per_mm
+        d = sample_bilinear(dist, outline.to_crop(xy) + pad)[:, 0] / px_per_mm
         return d >= 0.6 * d_mm
 
     inner = edge - spacing.ring_mm * normal
@@ -263,8 +378,8 @@ def _geometry(model: PhotoModel, spacing: SampleSpacing) -> _Geometry:
     if rings and len(rings[-1]) and len(inner):
         _, beside = cKDTree(rings[-1]).query(inner)
         table_out[:len(inner)] = len(p_out) - len(rings[-1]) + np.asarray(beside, np.intp)
-    return _Geometry(_lift(p_in), _lift(p_out), to_crop(p_in), np.asarray(nearest, np.intp),
-                     px_per_mm, table_out)
+    return _Geometry(_lift(p_in), _lift(p_out), outline.to_crop(p_in),
+                     np.asarray(nearest, np.intp), px_per_mm, table_out)
 
 
 def _palette(colours: NDArray[np.float64], max_colours: int = 6) -> NDArray[np.float64]:

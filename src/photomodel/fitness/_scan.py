@@ -38,7 +38,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-import numba
 import numpy as np
 import rocket_fft  # noqa: F401  (scipy.fft inside numba: registers its overloads)
 import scipy.fft
@@ -58,7 +57,8 @@ _PLANS_PER_MODEL = 3
 """Scan plans kept per model (each holds its depth groups' kernel spectra, about 3.5 MB a
 group on level 4 with 45 angles): ``locate`` asks for two, the coarse scan's and level 3's."""
 
-__all__ = ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses"]
+__all__ = ["ScanConfig", "ScanResult", "prepare_scan", "relight_scan", "scan_flat_poses",
+           "scan_spacing"]
 
 
 @dataclass(frozen=True)
@@ -225,7 +225,7 @@ def relight_scan(model: PhotoModel | PreparedModel, features: StereoFeatures,
     """
     c = config or ScanConfig()
     model = as_prepared(model)
-    samples = model_samples(model, _scan_spacing(c))
+    samples = model_samples(model, scan_spacing(c))
     relit = [scan_flat_poses(model, features, lower, upper, c, light_offset=offset)
              for _, offset in light_offset_candidates(samples.f_in,
                                                       features.pyramids[0][c.level],
@@ -300,7 +300,7 @@ def _labelled(model: PreparedModel, features: StereoFeatures, c: ScanConfig) -> 
     """The samples a scan with ``c`` correlates, each labelled with its nearest palette
     colour (the match's colour weights), and the colours used; the labels kept per samples
     and colour tolerances (every pair's scans ask for the same)."""
-    samples = model_samples(model, _scan_spacing(c))
+    samples = model_samples(model, scan_spacing(c))
     m = features.match
 
     def make() -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp],
@@ -364,7 +364,6 @@ def _make_plan(model: PreparedModel, features: StereoFeatures, lower: NDArray[np
                     np.linalg.norm(samples.p_out[:, :2], axis=1).max())
     points = [(samples.p_in[:, :2], label_in, 1.0 / len(label_in)),
               (samples.p_out[:, :2], label_out, -1.0 / len(label_out))]
-    workers = numba.get_num_threads()
     rig_key = rig.calibration_key
     plan = []
     for first in range(0, len(zs), c.depths_per_kernel):
@@ -383,9 +382,8 @@ def _make_plan(model: PreparedModel, features: StereoFeatures, lower: NDArray[np
             group.append((float(z), _depth_grids(rig, rig_key, scale, K_z, h_z, w_z, float(z))))
         if not group:
             continue
-        kernels = np.conj(scipy.fft.rfft2(
-            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape),
-            workers=workers))
+        kernels = _conj_spectra(
+            _kernels(points, colours, thetas, K1[0, 0] / z_ref, K1[1, 1] / z_ref, shape))
         sizes = np.array([rays.shape[:2] for _, (rays, _, _) in group], dtype=np.intp)
         rows, cols = sizes.max(axis=0)
         maps = np.full((len(group), 4, rows, cols), -1.0, dtype=np.float32)
@@ -429,9 +427,9 @@ def _detail(c: ScanConfig) -> int:
     return c.level if c.detail_level is None else c.detail_level
 
 
-def _scan_spacing(c: ScanConfig) -> SampleSpacing:
-    """The samples a scan with ``c`` correlates: ``_detail(c)``'s points, the colours blurred
-    as the scanned level's."""
+def scan_spacing(c: ScanConfig) -> SampleSpacing:
+    """The spacing of the samples a scan with ``c`` correlates: the sample points of level
+    ``c.detail_level`` (else ``c.level``), the colours blurred as the scanned level's."""
     spacing = level_spacing(_detail(c))
     if _detail(c) == c.level:
         return spacing
@@ -650,6 +648,23 @@ def _planes_rfft2(x):  # pragma: no cover - compiled
         for i in range(H):
             for j in range(W // 2 + 1):
                 out[m // C, m % C, i, j] = f[i, j]
+    return out
+
+
+@njit
+def _conj_spectra(x):  # pragma: no cover - compiled
+    """The complex conjugate of ``scipy.fft.rfft2`` of every plane of ``x`` (A, C, H, W)
+    float32: (A, C, H, W // 2 + 1) complex64, the same spectra to the bit (Rocket-FFT: the
+    same PocketFFT). On one thread: a model's kernels take a few milliseconds, and on a busy
+    machine waiting for numba's threads can take longer than that."""
+    A, C, H, W = x.shape
+    out = np.empty((A, C, H, W // 2 + 1), dtype=np.complex64)
+    for a in range(A):
+        for k in range(C):
+            f = scipy.fft.rfft2(x[a, k])
+            for i in range(H):
+                for j in range(W // 2 + 1):
+                    out[a, k, i, j] = np.conj(f[i, j])
     return out
 
 

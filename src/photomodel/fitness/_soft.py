@@ -114,12 +114,46 @@ class StereoFeatures:
                  match: SoftMatch | None = None) -> None:
         rig.cam1.check_image(right_bgr, "right image")
         rig.cam2.check_image(left_bgr, "left image")
+        match = match or SoftMatch()
+        sigma = match.smooth_sigma_px
+        self._set(rig, match, (feature_pyramid(log_opponent(right_bgr, sigma), levels),
+                               feature_pyramid(log_opponent(left_bgr, sigma), levels)))
+
+    def _set(self, rig: StereoRig, match: SoftMatch,
+             pyramids: tuple[list[NDArray[np.float32]], list[NDArray[np.float32]]]) -> None:
+        """Set the rig, the match and both cameras' feature pyramids (levels (H, W, 3))."""
         self.rig = rig
-        self.match = match or SoftMatch()
-        sigma = self.match.smooth_sigma_px
-        self.pyramids = (feature_pyramid(log_opponent(right_bgr, sigma), levels),
-                         feature_pyramid(log_opponent(left_bgr, sigma), levels))
+        self.match = match
+        self.pyramids = pyramids
         self._cameras: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+    @classmethod
+    def blank(cls, rig: StereoRig, levels: int = 5, match: SoftMatch | None = None
+              ) -> StereoFeatures:
+        """Features of no stereo pair: all-zero feature pyramids of the rig's calibrated
+        image sizes (the sizes ``cv2.pyrDown`` gives), for what needs a pair's rig, sizes and
+        levels but not its images (:func:`~photomodel.locate.prepare_model`).
+
+        Raises
+        ------
+        ValueError
+            When the calibration does not give both cameras' image sizes.
+        """
+        sizes = (rig.cam1.image_size, rig.cam2.image_size)
+        if not all(w and h for w, h in sizes):
+            raise ValueError(f"rig: expected calibrated image sizes, got {sizes}")
+        if levels < 1:
+            raise ValueError(f"levels: expected >= 1, got {levels}")
+
+        def zeros(w: int, h: int) -> list[NDArray[np.float32]]:
+            shapes = [(h, w)]
+            for _ in range(levels - 1):
+                shapes.append(((shapes[-1][0] + 1) // 2, (shapes[-1][1] + 1) // 2))
+            return [np.zeros((*shape, 3), dtype=np.float32) for shape in shapes]
+
+        features = cls.__new__(cls)
+        features._set(rig, match or SoftMatch(), (zeros(*sizes[0]), zeros(*sizes[1])))
+        return features
 
     @property
     def levels(self) -> int:

@@ -70,12 +70,13 @@ def _gaussian_taps(sigma_px: float) -> NDArray[np.float32]:
     return cv2.getGaussianKernel(size, sigma_px, cv2.CV_32F).ravel().astype(np.float32)
 
 
-@njit(parallel=True)
+@njit
 def _log_opponent_kernel(img, lut, out):  # pragma: no cover - compiled
     """``out`` (H, W, 3) float32 = the rows of ``_OPPONENT`` applied to ``lut`` (256,) of
-    each channel of ``img`` (H, W, 3) uint8 (B, G, R): one pass over the pixels, rows side
-    by side."""
-    for r in prange(img.shape[0]):
+    each channel of ``img`` (H, W, 3) uint8 (B, G, R): one pass over the pixels, on one
+    thread (about a nanosecond a pixel: less than waking numba's threads costs, and on a
+    busy machine much less than waiting for them)."""
+    for r in range(img.shape[0]):
         for c in range(img.shape[1]):
             lb = lut[img[r, c, 0]]
             lg = lut[img[r, c, 1]]

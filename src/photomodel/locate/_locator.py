@@ -93,9 +93,7 @@ class Locator:
         w2, h2 = self.rig.cam2.image_size
         if not (w and h and w2 and h2):
             return
-        blank = StereoFeatures(self.rig, np.zeros((h, w, 3), np.uint8),
-                               np.zeros((h2, w2, 3), np.uint8))
-        self.prepare(blank)
+        self.prepare(StereoFeatures.blank(self.rig))
 
     def prepare(self, features: StereoFeatures) -> bool:
         """Prepare the model for ``features``' rig and image size (done once; see

@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 from photomodel.fitness import (
     PreparedModel,
+    SampleDrawer,
     ScanConfig,
     SoftFitness,
     StereoFeatures,
     as_prepared,
+    level_spacing,
     prepare_scan,
+    scan_spacing,
 )
 from photomodel.model import PhotoModel
 from photomodel.search import PyramidConfig, SearchSpace
@@ -25,16 +29,19 @@ def prepare_model(model: PhotoModel | PreparedModel, features: StereoFeatures, *
 
     That is the model's samples at every pyramid level the search refines, with every camera
     blur it may choose there (``pyramid.optics_blur_candidates_mm`` on the levels below the
-    coarse level's next one, the global stage's blur above), and the kernels of every scan in
-    ``scans`` (:func:`~photomodel.fitness.prepare_scan`), so that no stereo pair pays for
-    them. :class:`~photomodel.Locator` calls this once when it is made.
+    coarse level's next one, the global stage's blur above), drawn by one
+    :class:`~photomodel.fitness.SampleDrawer`, and the kernels of every scan in ``scans``
+    (:func:`~photomodel.fitness.prepare_scan`, on a second thread once their samples are
+    drawn), so that no stereo pair pays for them. :class:`~photomodel.Locator` calls this
+    once when it is made.
 
     Parameters
     ----------
     model : PhotoModel or PreparedModel
         What is built is kept in the PreparedModel (a bare PhotoModel keeps nothing).
     features : StereoFeatures
-        Any stereo pair of the rig (its images are not read): the rig and image size.
+        Any stereo pair of the rig (its images are not read): the rig and image size
+        (:meth:`~photomodel.fitness.StereoFeatures.blank` gives one without images).
     space : SearchSpace, optional
         The search box (default: as :func:`~photomodel.locate.locate`).
     pyramid : PyramidConfig, optional
@@ -63,12 +70,27 @@ def prepare_model(model: PhotoModel | PreparedModel, features: StereoFeatures, *
     model = as_prepared(model)
     done: set[tuple[object, ...]] = model.kept.get("prepared", set)
     todo = [item for item in items if (base, item) not in done]
+    if not todo:
+        return False
+    drawer = SampleDrawer(model)       # shares the photo's blurs and outline between them
+    # Each scan's kernels on a second thread as soon as its samples are drawn, while the
+    # other samples are drawn (both spend their time in OpenCV and numba, which release the
+    # GIL); the scan whose samples are blurred least (drawn soonest) first.
+    scans_todo = sorted((item[1] for item in todo if isinstance(item[1], ScanConfig)),
+                        key=lambda scan: scan_spacing(scan).blur_mm)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        kernels = []
+        for scan in scans_todo:
+            drawer.draw([scan_spacing(scan)])
+            kernels.append(pool.submit(prepare_scan, model, features, space.lower,
+                                       space.upper, scan))
+        drawer.draw(level_spacing(int(item[1]), optics_blur_mm=float(item[2]))
+                    for item in todo if item[0] == "samples")
+        for built in kernels:
+            built.result()
     for item in todo:
         if item[0] == "samples":
             SoftFitness(model, features, int(item[1]), optics_blur_mm=float(item[2]))
-        else:
-            scan = item[1]
-            assert isinstance(scan, ScanConfig)
-            prepare_scan(model, features, space.lower, space.upper, scan)
         done.add((base, item))
-    return bool(todo)
+    return True
+
