@@ -1,6 +1,6 @@
 """``PreparedModels``: the models of a library prepared on first use, at most N kept (LRU).
 
-A catalogue of thousands of models cannot be prepared at start-up (about 0.1 s and 20 MB each
+A catalogue of thousands of models cannot be prepared at start-up (about 0.05 s and 20 MB each
 with 640 x 480 cameras, most of it the scans' transformed kernels): a model is loaded from its
 file and prepared for the rig (a :class:`~photomodel.Locator`) the first time a search needs
 it, and the least recently used one is dropped when more than ``capacity`` are held.
