@@ -72,7 +72,7 @@ IDENTIFY_COLUMNS: tuple[str, ...] = (
 )
 """Columns of ``identify.csv``. ``err_*`` are the best model's pose errors against the truth
 (NaN without a target); ``true_*`` the true model's own search (when it was searched);
-``scores`` a JSON object of every model's colour evidence and score."""
+``scores`` a JSON object of the listed candidates' screening evidence and score."""
 
 
 @dataclass(frozen=True)

@@ -133,8 +133,15 @@ class Identifier:
         return self._state[1]
 
     def _load_entry(self, name: str) -> PhotoModel:
-        assert self.library is not None
-        return self.library.load_entry(self.entries[name])
+        """Model ``name`` from the library's current state (the cache's loader)."""
+        return self._loader(self.entries)(name)
+
+    def _loader(self, entries: dict[str, LibraryEntry]) -> Callable[[str], PhotoModel]:
+        """A loader of models from the library state ``entries`` (models in memory: those)."""
+        library = self.library
+        if library is None:
+            return self._load
+        return lambda name: library.load_entry(entries[name])
 
     def reload(self) -> None:
         """Read the library's index again (after a model was added, replaced or removed):
@@ -186,11 +193,7 @@ class Identifier:
                           t0: float | None = None) -> IdentifyResult:
         """:meth:`__call__` on a stereo pair already turned into features."""
         entries, bank = self._state   # one library state for the whole call
-
-        def load(name: str) -> PhotoModel:
-            if self.library is None:
-                return self._load(name)
-            return self.library.load_entry(entries[name])
+        load = self._loader(entries)
 
         def prepared(i: int) -> PreparedModel:
             return self.prepared.get(bank.names[i], load).prepared

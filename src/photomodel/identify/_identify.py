@@ -167,7 +167,7 @@ class IdentifyResult:
     ----------
     best : LocateResult or None
         The located model with the highest score (found or not); None when no model was
-        searched (an empty library, or none with colour evidence).
+        searched (an empty library, or no garment-like region in view).
     found : bool
         ``best`` reaches ``min_score``: that model is on the table at ``best.T_cam1_model``.
     min_score : float
