@@ -175,13 +175,14 @@ def run_size(lib: Path, scenes: list[dict[str, Any]], seed: int) -> dict[str, An
         order = ("locate", "identify") if k % 2 == 0 else ("identify", "locate")
         times: dict[str, float] = {}
         result = None
+        truth_result = None
         for what in order:
             if what == "locate" and locator is None:
                 continue
             t1 = time.perf_counter()
             if what == "locate":
                 assert locator is not None
-                locator(sc["right"], sc["left"], rng=k)
+                truth_result = locator(sc["right"], sc["left"], rng=k)
             else:
                 result = identifier(sc["right"], sc["left"], rng=k)
             times[what] = time.perf_counter() - t1
@@ -206,7 +207,10 @@ def run_size(lib: Path, scenes: list[dict[str, Any]], seed: int) -> dict[str, An
                "correct": result.model == sc["truth"],
                "searched": sum(c.result is not None for c in result.candidates),
                "screen_rank": rank, "identify_s": times["identify"], "cold": cold,
-               "locate_s": times.get("locate"), "regions_ms": 1e3 * (t2 - t1),
+               "locate_s": times.get("locate"),
+               "truth_located": None if truth_result is None else bool(truth_result.found),
+               "truth_score": None if truth_result is None else float(truth_result.score),
+               "regions_ms": 1e3 * (t2 - t1),
                "bank_ms": 1e3 * (t3 - t2)}
         if row["correct"] and sc["T"] is not None and result.best is not None:
             row["errors"] = _errors(result.best.T_cam1_model, sc["T"])
@@ -236,6 +240,10 @@ def summarise(rows: list[dict[str, Any]], open_s: float, identifier: Any) -> dic
         "garment_scenes": len(garment), "negative_scenes": len(negative),
         "top1": float(np.mean([r["correct"] for r in garment])) if garment else None,
         "top1_by_group": by_group,
+        "top1_where_true_model_located": float(np.mean(
+            [r["correct"] for r in garment if r["truth_located"]] or [np.nan])),
+        "true_model_located": float(np.mean([bool(r["truth_located"]) for r in garment]))
+        if garment else None,
         "true_model_screened_first": float(np.mean([r["screen_rank"] == 0 for r in garment]))
         if garment else None,
         "false_accepts": float(np.mean([r["answer"] is not None for r in negative]))
@@ -248,6 +256,9 @@ def summarise(rows: list[dict[str, Any]], open_s: float, identifier: Any) -> dic
                                                    if not r["cold"]] or [np.nan])),
         "identify_negative_median_s": float(np.median([r["identify_s"] for r in negative]))
         if negative else None,
+        "identify_negative_by_condition_median_s": {
+            g: float(np.median([r["identify_s"] for r in negative if r["group"] == g]))
+            for g in NEGATIVES if any(r["group"] == g for r in negative)},
         "locate_median_s": float(np.median([r["locate_s"] for r in located]))
         if located else None,
         "identify_over_locate": ratio,

@@ -183,3 +183,22 @@ def test_slack_sums_match_a_numpy_reference(garment: str, condition: str) -> Non
     expected = _slid_sums_reference(fitness, T, shifts, offsets, cell_in, cell_out, cells)
     assert fitness.edge_mix_fraction > 0.0
     np.testing.assert_allclose(got, expected, rtol=0.0, atol=1e-8)
+
+
+def test_the_visible_outline_tells_a_hidden_garment_from_a_region_of_its_colour() -> None:
+    model, rig, right, left, T_true, visible = _case("No.6", "gripper")
+    hidden = score_terms(SoftFitness(model, StereoFeatures(rig, right, left), 0), T_true)
+    assert visible < 0.95
+    # Where its inside is seen, the hidden garment's outline shows as well as in full view.
+    assert hidden.visible_outline > 0.65 and hidden.visible_outline_cells >= 3
+    assert hidden.edge_evidence < hidden.visible_outline
+    x, y = np.round(rig.project_poses(T_true, np.zeros((1, 3)))[0][0]).astype(int)
+    flat_right = np.broadcast_to(right[y, x], right.shape).copy()
+    flat_left = np.broadcast_to(right[y, x], left.shape).copy()
+    region = score_terms(SoftFitness(model, StereoFeatures(rig, flat_right, flat_left), 0),
+                         T_true)
+    assert region.visible_outline < 0.3
+    far = T_true.copy()
+    far[:3, 3] += [5000.0, 0.0, 0.0]
+    gone = score_terms(SoftFitness(model, StereoFeatures(rig, right, left), 0), far)
+    assert gone.visible_outline == 0.0 and gone.visible_outline_cells == 0

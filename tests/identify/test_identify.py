@@ -2,20 +2,25 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from identify_helpers import IdentifyData
 
-from photomodel.fitness import StereoFeatures
+from photomodel.fitness import StereoFeatures, as_prepared
 from photomodel.identify import (
+    BankConfig,
     DescriptorBank,
     IdentifyConfig,
     identify,
     identify_in_features,
+    identify_with_bank,
     scene_regions,
 )
 from photomodel.locate import locate_in_features
 from photomodel.model import describe_model
+from photomodel.model._descriptor import COLOUR_GRID_SHAPE, colour_grid_coords
 
 LOCATE_KEYS = {"model", "found", "T_cam1_model", "position_mm", "quat_wxyz", "theta_deg",
                "fitness", "score", "seconds"}
@@ -98,6 +103,56 @@ def test_config_validation() -> None:
         IdentifyConfig(min_score=2.0)
     with pytest.raises(ValueError, match="retries"):
         IdentifyConfig(retries=-1)
+    with pytest.raises(ValueError, match="min_visible_outline"):
+        IdentifyConfig(min_visible_outline=1.5)
+    with pytest.raises(ValueError, match="wide_candidates"):
+        IdentifyConfig(wide_candidates=-1)
+
+
+def _refine_reference(bank: DescriptorBank, scene, evidence: np.ndarray, refine: int
+                      ) -> np.ndarray:
+    """The pixel-by-pixel refinement written out in numpy (the module docstring)."""
+    grid = np.asarray(COLOUR_GRID_SHAPE)
+    steps = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"),
+                     -1).reshape(-1, 3)
+
+    def cells(lab: np.ndarray) -> np.ndarray:
+        c = np.round(colour_grid_coords(lab)).astype(np.int64)
+        return np.ravel_multi_index(tuple(c.T), COLOUR_GRID_SHAPE)
+
+    out = evidence.copy()
+    for m in np.argsort(-evidence, kind="stable")[:refine]:
+        near = (bank.bins[m][bank.weights[m] > 0.01][:, None, :] + steps[None]).reshape(-1, 3)
+        near = near[np.all((near >= 0) & (near < grid), axis=1)]
+        palette = np.zeros(int(np.prod(grid)), dtype=bool)
+        palette[np.ravel_multi_index(tuple(near.T), COLOUR_GRID_SHAPE)] = True
+        best = 0.0
+        for region in scene.regions:
+            shift = bank._light_shift(m, region.mean_lab, BankConfig())
+            for explained in (palette[cells(region.lab)], palette[cells(region.lab - shift)]):
+                n = int(np.count_nonzero(explained))
+                if n < 3:
+                    continue
+                v = n * region.mm_per_px**2 / bank.area_mm2[m]
+                xy = region.xy_mm[explained].astype(np.float64)
+                moments = np.maximum(np.sort(np.linalg.eigvalsh(np.cov(xy.T)))[::-1], 1.0)
+                shape = min(float(np.abs(np.log(moments / bank.moments_mm2[m])).sum()) / 0.5,
+                            1.0)
+                best = max(best, min(v, 1.0) - 0.5 * max(float(np.log(v)), 0.0)
+                           - 0.3 * shape * min(v, 1.0))
+        out[m] = 0.5 * evidence[m] + 0.5 * best
+    return np.clip(out, 0.0, 1.0)
+
+
+def test_the_compiled_refinement_matches_numpy(identify_data: IdentifyData) -> None:
+    d = identify_data
+    names = [m.name for m in d.models]
+    bank = DescriptorBank(names, [describe_model(m) for m in d.models])
+    scene = scene_regions(StereoFeatures(d.rig, d.scene_right, d.scene_left))
+    first = bank.screen(scene)
+    np.testing.assert_allclose(bank.refine(scene, first, BankConfig(refine=3)),
+                               _refine_reference(bank, scene, first, 3), atol=1e-5)
+    assert np.any(bank.refine(scene, first) != first)
 
 
 def test_an_identifier_prepares_its_library_and_gives_identifys_answer(
@@ -128,3 +183,52 @@ def test_an_identifier_prepares_its_library_and_gives_identifys_answer(
                      config=IdentifyConfig(max_candidates=2, min_score=identifier.min_score),
                      rng=3)
     np.testing.assert_array_equal(result.best.T_cam1_model, again.best.T_cam1_model)
+
+
+class _FixedBank(DescriptorBank):
+    """A bank whose screening evidence is given (the ranking under test)."""
+
+    def __init__(self, names: list[str], descriptors: list, evidence: np.ndarray) -> None:
+        super().__init__(names, descriptors)
+        self.fixed = np.asarray(evidence, dtype=np.float64)
+
+    def evidence(self, scene, config=None):  # type: ignore[no-untyped-def]
+        return self.fixed.copy()
+
+
+def test_a_garment_screened_low_is_verified_when_none_is_found(identify_data: IdentifyData
+                                                               ) -> None:
+    """A hidden garment screens lower than in full view: when the candidates within the
+    margin are not found, the wider candidates whose scan is trusted are verified."""
+    d = identify_data
+    names = [m.name for m in d.models]
+    prepared = [as_prepared(m) for m in d.models]
+    truth = names.index("No.5")
+    evidence = np.full(len(names), 0.9)
+    evidence[truth] = 0.2
+    bank = _FixedBank(names, [describe_model(m) for m in d.models], evidence)
+    features = StereoFeatures(d.rig, d.scene_right, d.scene_left)
+    narrow = IdentifyConfig(candidate_margin=0.3, wide_candidates=0, retries=0,
+                            trusted_first=False)
+    missed = identify_with_bank(bank, prepared.__getitem__, features, config=narrow, rng=1)
+    assert missed.model is None
+    assert [c.model for c in missed.candidates if c.result is not None] == [
+        n for n in names if n != "No.5"]
+    wide = identify_with_bank(bank, prepared.__getitem__, features,
+                              config=replace(narrow, wide_candidates=len(names)), rng=1)
+    assert wide.model == "No.5" and wide.found
+
+
+def test_a_model_inside_a_region_of_its_colours_is_not_found(identify_data: IdentifyData
+                                                             ) -> None:
+    """Found needs the outline where the inside agrees: with an impossible visible-outline
+    bar the same search finds nothing, and reports how close it came."""
+    d = identify_data
+    config = IdentifyConfig(max_candidates=1, retries=0)
+    seen = identify(d.models, d.rig, d.scene_right, d.scene_left, config=config, rng=3)
+    assert seen.found and seen.best is not None
+    assert seen.best.visible_outline >= config.min_visible_outline
+    strict = identify(d.models, d.rig, d.scene_right, d.scene_left,
+                      config=replace(config, min_visible_outline=1.0), rng=3)
+    assert not strict.found and strict.model is None
+    assert strict.best is not None and strict.score == pytest.approx(seen.score)

@@ -84,6 +84,12 @@ def _shifts_mm(slack: ScoreSlack) -> NDArray[np.float64]:
 NO_SLACK = ScoreSlack(max_shift_mm=0.0)
 """Every sample where the pose puts it (the rigid score)."""
 
+AGREEING_CELL = 0.75
+"""Mean inner agreement (both cameras) from which a cell's inside counts as seen."""
+
+OUTLINE_CELL_PAIRS = 3
+"""Fewest outline pairs (inner-ring point and band point) of a cell on the outline."""
+
 
 @dataclass(frozen=True)
 class ScoreTerms:
@@ -100,12 +106,22 @@ class ScoreTerms:
         evidence, each cell's samples slid to where their share of the two is highest.
     slid_fraction : float
         Share of the cells whose best place is not where the pose puts them.
+    visible_outline : float
+        The outline evidence of the cells on the model's outline whose inside agrees (inner
+        agreement over :data:`AGREEING_CELL`), each at its best slide, in [0, 1]; 0 when no
+        outline cell agrees, NaN for samples without outline pairs. The garment, even half hidden, shows its outline where its
+        inside is seen (0.65-0.95); a model lying inside a larger region of its colour does
+        not (0.3-0.45).
+    visible_outline_cells : int
+        The outline cells that agree, of which ``visible_outline`` is the mean.
     """
 
     fitness: float
     edge_evidence: float
     score: float
     slid_fraction: float
+    visible_outline: float = float("nan")
+    visible_outline_cells: int = 0
 
 
 def _cell_labels(points_mm: NDArray[np.float64], cell_mm: float
@@ -166,8 +182,25 @@ def score_terms(fitness: SoftFitness, A_cam1_model: NDArray[np.float64],
     fit = float(fit_cell[best, columns].sum()) - penalty
     edges = float(edge_cell[best, columns].sum())
     score = 0.5 * (float(np.clip(fit, 0.0, 1.0)) + float(np.clip(edges, 0.0, 1.0)))
+    outline, outline_cells = _visible_outline(s, sums[best, :, columns].T, cell_in, cells)
     return ScoreTerms(float(fit_cell[0].sum()) - penalty, float(edge_cell[0].sum()), score,
-                      float(np.mean(best > 0)))
+                      float(np.mean(best > 0)), outline, outline_cells)
+
+
+def _visible_outline(samples: ModelSamples, cell_sums: NDArray[np.float64],
+                     cell_in: NDArray[np.intp], cells: int) -> tuple[float, int]:
+    """Mean outline evidence (and count) of the outline cells whose inside agrees, from
+    each cell's sums (3, C) at its chosen slide (:attr:`ScoreTerms.visible_outline`)."""
+    if samples.table_out is None:
+        return float("nan"), 0
+    inner = np.bincount(cell_in, minlength=cells).astype(np.float64)
+    pairs = np.bincount(cell_in[samples.table_out >= 0], minlength=cells).astype(np.float64)
+    agreeing = cell_sums[0] > AGREEING_CELL * np.maximum(inner, 1.0)
+    outline = agreeing & (pairs >= OUTLINE_CELL_PAIRS)
+    n = int(np.count_nonzero(outline))
+    if n == 0:
+        return 0.0, 0
+    return float(np.mean(cell_sums[2][outline] / pairs[outline])), n
 
 
 def edge_evidence(fitness: SoftFitness, T_cam1_model: NDArray[np.float64]) -> float:

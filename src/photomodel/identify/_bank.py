@@ -40,12 +40,12 @@ from numba import prange
 from numpy.typing import NDArray
 
 from photomodel._jit import njit
-from photomodel.identify._scene import Region, SceneRegions
+from photomodel.identify._scene import SceneRegions
 from photomodel.model._descriptor import (
     COLOUR_BIN,
+    COLOUR_GRID_LOW,
     COLOUR_GRID_SHAPE,
     ModelDescriptor,
-    colour_grid_coords,
 )
 
 __all__ = ["LIGHT_DIRECTION_AB", "BankConfig", "DescriptorBank"]
@@ -139,41 +139,28 @@ class DescriptorBank:
         out = evidence.copy()
         if not scene.regions or not c.refine:
             return out
+        top = np.argsort(-evidence, kind="stable")[: c.refine]
         grid = np.asarray(COLOUR_GRID_SHAPE)
-        steps = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"),
-                         -1).reshape(-1, 3)
-        cells0 = [self._cells(r.lab) for r in scene.regions]   # each region's bins, no shift
-        palette = np.zeros(int(np.prod(grid)), dtype=bool)
-        for m in np.argsort(-evidence, kind="stable")[: c.refine]:
-            near = (self.bins[m][self.weights[m] > 0.01][:, None, :] + steps[None]).reshape(-1, 3)
+        palettes = np.zeros((len(top), int(np.prod(grid))), dtype=np.bool_)
+        for row, m in enumerate(top):
+            near = (self.bins[m][self.weights[m] > 0.01][:, None, :] + _STEPS[None]
+                    ).reshape(-1, 3)
             near = near[np.all((near >= 0) & (near < grid), axis=1)]
-            palette[:] = False
-            palette[np.ravel_multi_index(tuple(near.T), COLOUR_GRID_SHAPE)] = True
-            best = 0.0
-            for region, cells in zip(scene.regions, cells0, strict=True):
-                shift = self._light_shift(m, region.mean_lab, c)
-                for explained in (palette[cells], palette[self._cells(region.lab - shift)]):
-                    best = max(best, self._explained_score(m, region, explained))
-            out[m] = 0.5 * evidence[m] + 0.5 * best
+            palettes[row, np.ravel_multi_index(tuple(near.T), COLOUR_GRID_SHAPE)] = True
+        regions = scene.regions
+        starts = np.cumsum([0, *(r.pixels for r in regions)]).astype(np.int64)
+        shifts = np.stack([[self._light_shift(int(m), r.mean_lab, c) for r in regions]
+                           for m in top])
+        best = _refine_kernel(
+            palettes, np.ascontiguousarray(np.concatenate([r.lab for r in regions]),
+                                           dtype=np.float32),
+            np.ascontiguousarray(np.concatenate([r.xy_mm for r in regions]),
+                                 dtype=np.float32),
+            starts, np.array([r.mm_per_px for r in regions], dtype=np.float64), shifts,
+            self.area_mm2[top], self.moments_mm2[top], COLOUR_GRID_LOW.astype(np.float64),
+            float(COLOUR_BIN), grid.astype(np.int64))
+        out[top] = 0.5 * evidence[top] + 0.5 * best
         return np.clip(out, 0.0, 1.0)
-
-    @staticmethod
-    def _cells(lab: NDArray[np.floating]) -> NDArray[np.int64]:
-        """Flat grid bins (N,) of colours (N, 3)."""
-        cells = np.round(colour_grid_coords(lab)).astype(np.int64)
-        return np.ravel_multi_index(tuple(cells.T), COLOUR_GRID_SHAPE)
-
-    def _explained_score(self, m: int, region: Region, explained: NDArray[np.bool_]) -> float:
-        """``min(v, 1) - 0.5 max(ln v, 0) - 0.3 shape min(v, 1)`` of model ``m`` for the
-        region pixels it explains (see the module docstring)."""
-        n = int(np.count_nonzero(explained))
-        if n < 3:
-            return 0.0
-        v = n * region.mm_per_px**2 / self.area_mm2[m]
-        xy = region.xy_mm[explained].astype(np.float64)
-        moments = np.maximum(np.sort(np.linalg.eigvalsh(np.cov(xy.T)))[::-1], 1.0)
-        shape = min(float(np.abs(np.log(moments / self.moments_mm2[m])).sum()) / 0.5, 1.0)
-        return min(v, 1.0) - 0.5 * max(float(np.log(v)), 0.0) - 0.3 * shape * min(v, 1.0)
 
     def screen(self, scene: SceneRegions, config: BankConfig | None = None
                ) -> NDArray[np.float64]:
@@ -197,6 +184,69 @@ class DescriptorBank:
                                      np.minimum(shape / 0.5, 1.0), float(c.shape_weight))
             np.maximum(out, score, out=out)
         return np.clip(out, 0.0, 1.0)
+
+
+_STEPS = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"),
+                  -1).reshape(-1, 3)
+"""A colour bin and its 26 neighbours, as offsets (27, 3)."""
+
+
+@njit(parallel=True)
+def _refine_kernel(palettes, lab, xy_mm, starts, mm_per_px, shifts, area_mm2, moments_mm2,
+                   low, bin_width, grid):  # pragma: no cover - compiled
+    """Best ``min(v, 1) - 0.5 max(ln v, 0) - 0.3 shape min(v, 1)`` per model (R,) over the
+    regions (pixels ``starts[g]:starts[g + 1]``) and the two lights (none, ``shifts[r, g]``),
+    of the region pixels whose colour bin is in the model's palette (R, bins)."""
+    r_count = palettes.shape[0]
+    g_count = len(starts) - 1
+    nl, na, nb = grid[0], grid[1], grid[2]
+    out = np.zeros(r_count)
+    for r in prange(r_count):
+        best = 0.0
+        for g in range(g_count):
+            for light in range(2):
+                n = 0
+                sx = 0.0
+                sy = 0.0
+                sxx = 0.0
+                syy = 0.0
+                sxy = 0.0
+                for p in range(starts[g], starts[g + 1]):
+                    cl = (lab[p, 0] - shifts[r, g, 0] * light - low[0]) / bin_width - 0.5
+                    ca = (lab[p, 1] - shifts[r, g, 1] * light - low[1]) / bin_width - 0.5
+                    cb = (lab[p, 2] - shifts[r, g, 2] * light - low[2]) / bin_width - 0.5
+                    il = min(max(int(np.floor(cl + 0.5)), 0), nl - 1)
+                    ia = min(max(int(np.floor(ca + 0.5)), 0), na - 1)
+                    ib = min(max(int(np.floor(cb + 0.5)), 0), nb - 1)
+                    if not palettes[r, (il * na + ia) * nb + ib]:
+                        continue
+                    x = float(xy_mm[p, 0])
+                    y = float(xy_mm[p, 1])
+                    n += 1
+                    sx += x
+                    sy += y
+                    sxx += x * x
+                    syy += y * y
+                    sxy += x * y
+                if n < 3:
+                    continue
+                v = n * mm_per_px[g] ** 2 / area_mm2[r]
+                cxx = (sxx - sx * sx / n) / (n - 1)
+                cyy = (syy - sy * sy / n) / (n - 1)
+                cxy = (sxy - sx * sy / n) / (n - 1)
+                half = 0.5 * (cxx + cyy)
+                root = np.sqrt(max(0.25 * (cxx - cyy) ** 2 + cxy * cxy, 0.0))
+                m1 = max(half + root, 1.0)
+                m2 = max(half - root, 1.0)
+                shape = (abs(np.log(m1 / moments_mm2[r, 0]))
+                         + abs(np.log(m2 / moments_mm2[r, 1]))) / 0.5
+                shape = min(shape, 1.0)
+                fill = min(v, 1.0)
+                score = fill - 0.5 * max(np.log(v), 0.0) - 0.3 * shape * fill
+                if score > best:
+                    best = score
+        out[r] = best
+    return out
 
 
 @njit(parallel=True)

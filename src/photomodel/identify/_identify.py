@@ -16,14 +16,19 @@ For one stereo pair and a library of any size:
    ``min_evidence``), at most ``max_candidates``, those whose coarse scan
    (:data:`~photomodel.locate.COARSE_SCAN`) is trusted first (``trusted_first``: their colours
    agree somewhere at the station's light), at most
-   ``untrusted_candidates`` of the others, and once one is found only those that the screen
-   could not tell from it (within ``evidence_margin`` of its evidence). A model is loaded
-   and prepared only when it is a candidate (:class:`~photomodel.identify.PreparedModels`
-   keeps the recent ones).
-4. **Decide**: the candidate with the highest score is the answer when its score reaches
-   ``min_score``, the threshold calibrated on simulated scenes and stored with the package
-   (:func:`~photomodel.identify.load_threshold`); otherwise none of the models is on the
-   table. The runner-up is the next best located candidate.
+   ``untrusted_candidates`` of the others, and once one is found with at least
+   ``sure_score`` only those that the screen could not tell from it (within
+   ``evidence_margin`` of its evidence). While none is found that surely, the next
+   best-screened models whose coarse scan is trusted are verified too, up to rank
+   ``wide_candidates`` (a garment partly hidden, or merged with an occluder into one region,
+   screens lower). A model is loaded and prepared only when it is a candidate
+   (:class:`~photomodel.identify.PreparedModels` keeps the recent ones).
+4. **Decide**: a candidate is found when its score reaches ``min_score``, the threshold
+   calibrated on simulated scenes and stored with the package
+   (:func:`~photomodel.identify.load_threshold`), and its outline shows where its inside
+   agrees (``min_visible_outline``); the found one with the highest score is the answer,
+   otherwise none of the models is on the table. The runner-up is the next best located
+   candidate.
 5. **Second look**: when no candidate reaches ``min_score``, the first ``retry_candidates``
    are searched again with fresh seeds (``retries`` times) with ``locate``'s retry
    configuration; each keeps its better result.
@@ -101,6 +106,22 @@ class IdentifyConfig:
         only while none is found.
     shown_candidates : int
         Best-screened models listed in the answer's ``candidates`` beside those searched.
+    min_visible_outline : float
+        A candidate counts as found only when its outline shows where its inside agrees
+        (:attr:`~photomodel.locate.LocateResult.visible_outline` at least this): a model
+        lying inside a larger region of its colours (a look-alike, or a garment that is
+        not in the library) scores up to about 0.5 with about 0.3-0.5 here, the garment
+        itself, even half hidden, 0.65 or more.
+    sure_score : float
+        A found candidate scoring at least this ends the search early (the margins above);
+        a weaker find lets the remaining and the wider candidates be verified too, and the
+        best found wins.
+    wide_candidates : int
+        When none of the candidates is found, the best-screened models up to this rank are
+        verified too (a garment partly hidden, or lying against an occluder in one region,
+        screens lower than in full view).
+    wide_trusted_only : bool
+        Verify only those of the wider candidates whose coarse scan is trusted.
     """
 
     min_score: float | None = None
@@ -115,6 +136,10 @@ class IdentifyConfig:
     scene: SceneConfig = field(default_factory=SceneConfig)
     trusted_first: bool = True
     shown_candidates: int = 10
+    min_visible_outline: float = 0.58
+    sure_score: float = 0.6
+    wide_candidates: int = 24
+    wide_trusted_only: bool = True
 
     def __post_init__(self) -> None:
         if self.min_score is not None and not 0.0 <= self.min_score <= 1.0:
@@ -132,6 +157,11 @@ class IdentifyConfig:
         if self.retries < 0 or self.retry_candidates < 1:
             raise ValueError(f"retries: expected >= 0 and retry_candidates >= 1, got "
                              f"{self.retries}, {self.retry_candidates}")
+        if not 0.0 <= self.min_visible_outline <= 1.0 or not 0.0 <= self.sure_score <= 1.0:
+            raise ValueError("min_visible_outline, sure_score: expected [0, 1], got "
+                             f"{self.min_visible_outline}, {self.sure_score}")
+        if self.wide_candidates < 0:
+            raise ValueError(f"wide_candidates: expected >= 0, got {self.wide_candidates}")
         if self.shown_candidates < 0:
             raise ValueError(f"shown_candidates: expected >= 0, got {self.shown_candidates}")
 
@@ -297,11 +327,16 @@ def identify_with_bank(
     scans: dict[int, ScanResult] = {}
     models: dict[int, PreparedModel] = {}
 
-    def found() -> int | None:
-        best = max(located, key=lambda i: located[i].score, default=None)
-        return best if best is not None and located[best].score >= min_score else None
+    def accepted(r: LocateResult) -> bool:
+        return r.score >= min_score and not r.visible_outline < c.min_visible_outline
+
+    def found(at_least: float = 0.0) -> int | None:
+        ok = [i for i in located if accepted(located[i]) and located[i].score >= at_least]
+        return max(ok, key=lambda i: located[i].score, default=None)
 
     def verify(i: int, attempt: int) -> None:
+        if i not in models:
+            models[i] = prepared(i)
         r = locate_in_features(models[i], features, space=space,
                                rng=_model_rng(base, bank.names[i], attempt),
                                min_score=min_score, t0=time.perf_counter(), retries=0,
@@ -309,19 +344,30 @@ def identify_with_bank(
         if i not in located or r.score > located[i].score:
             located[i] = r
 
-    for i in chosen:
-        models[i] = prepared(i)
-        scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper, COARSE_SCAN)
-    trusted = [i for i in chosen if scans[i].trusted or not c.trusted_first]
-    untrusted = [i for i in chosen if i not in trusted][: c.untrusted_candidates]
-    for group in (trusted, untrusted):
+    def scan(i: int) -> ScanResult:
+        if i not in scans:
+            models[i] = prepared(i)
+            scans[i] = scan_flat_poses(models[i], features, space.lower, space.upper,
+                                       COARSE_SCAN)
+        return scans[i]
+
+    def verify_in_turn(group: list[int], *, only_until_found: bool = False,
+                       trusted_only: bool = False) -> None:
         for i in group:
-            hit = found()
-            if hit is not None and evidence[i] < evidence[hit] - c.evidence_margin:
+            hit = found(c.sure_score)      # a weak find does not stop the search
+            if hit is not None and (only_until_found
+                                    or evidence[i] < evidence[hit] - c.evidence_margin):
                 break     # the rest look less like the scene than the one found
-            if hit is not None and group is untrusted:
-                break     # a model is found; these ones' colours agree nowhere
-            verify(i, 0)
+            if not trusted_only or scan(i).trusted:
+                verify(i, 0)
+
+    trusted = [i for i in chosen if scan(i).trusted or not c.trusted_first]
+    verify_in_turn(trusted)
+    verify_in_turn([i for i in chosen if i not in trusted][: c.untrusted_candidates],
+                   only_until_found=True)   # their colours agree nowhere: only while none
+    if found(c.sure_score) is None:   # a hidden or merged garment screens lower: look on
+        verify_in_turn([int(i) for i in order[len(chosen): c.wide_candidates]
+                        if evidence[i] >= c.min_evidence], trusted_only=c.wide_trusted_only)
     for attempt in range(1, 1 + c.retries):
         if found() is not None:
             break
@@ -332,11 +378,13 @@ def identify_with_bank(
     shown.sort(key=lambda i: -evidence[i])
     candidates = tuple(Candidate(bank.names[i], float(evidence[i]), located.get(i))
                        for i in shown)
+    hit = found()
     ranked = sorted((c_ for c_ in candidates if c_.result is not None),
-                    key=lambda c_: -float(c_.result.score))  # type: ignore[union-attr]
+                    key=lambda c_: (c_.model != (None if hit is None else bank.names[hit]),
+                                    -float(c_.result.score)))  # type: ignore[union-attr]
     best = ranked[0].result if ranked else None
     runner_up = ranked[1] if len(ranked) > 1 else None
-    is_found = best is not None and best.score >= min_score
+    is_found = hit is not None
     return IdentifyResult(best, bool(is_found), float(min_score), runner_up, candidates,
                           time.perf_counter() - t0)
 

@@ -16,6 +16,7 @@ from photomodel.fitness import (
     PreparedModel,
     ScanConfig,
     ScanResult,
+    ScoreTerms,
     SoftFitness,
     StereoFeatures,
     as_prepared,
@@ -148,6 +149,10 @@ class LocateResult:
     seconds: float
     search: SearchResult
     edge_evidence: float = float("nan")
+    visible_outline: float = float("nan")
+    """Outline evidence where the model's inside agrees
+    (:attr:`~photomodel.fitness.ScoreTerms.visible_outline`), in [0, 1]; NaN when not
+    measured."""
 
     @property
     def position_mm(self) -> NDArray[np.float64]:
@@ -416,7 +421,7 @@ def locate_in_features(
     config = pyramid or PyramidConfig()
     prepare_model(model, features, space=space, pyramid=config,
                   scans=(None if scan is not None else coarse_scan, ScanConfig()))
-    attempts: list[tuple[PyramidResult, float, float]] = []   # (search, score, evidence)
+    attempts: list[tuple[PyramidResult, ScoreTerms]] = []
 
     @functools.cache
     def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
@@ -428,7 +433,7 @@ def locate_in_features(
         attempt = pyramid_search(fitness_at, space, settings, rng=gen, seeds=seeds,
                                  R_cam1_facing=features.rig.R_cam1_facing)
         terms = score_terms(fitness_at(0, 0.0, attempt.optics_blur_mm), _affine(attempt))
-        attempts.append((attempt, terms.score, terms.edge_evidence))
+        attempts.append((attempt, terms))
 
     if seeds is not None:
         search([np.asarray(s, dtype=np.float64) for s in seeds], config)
@@ -439,7 +444,8 @@ def locate_in_features(
                                  keep=first) or first
         if first.trusted and not second_look:
             search(list(first.poses), config)
-    if seeds is None and (not attempts or attempts[-1][1] < max(min_score, COARSE_MIN_SCORE)):
+    if seeds is None and (not attempts
+                          or attempts[-1][1].score < max(min_score, COARSE_MIN_SCORE)):
         if scan is None:
             scan = scan_flat_poses(model, features, space.lower, space.upper)
         relit = not scan.trusted
@@ -450,19 +456,20 @@ def locate_in_features(
         seeds = list(scan.poses)
         searches = 0
         while searches <= retries and (searches == 0
-                                       or max(a[1] for a in attempts) < min_score):
+                                       or max(a[1].score for a in attempts) < min_score):
             if searches == 1 and not relit:  # a trusted scan's peaks missed: relight them too
                 again = relight_scan(model, features, space.lower, space.upper)
                 seeds = [*(again.poses if again is not None else []), *seeds]
             search(seeds, config if searches == 0 and not second_look else config.for_retry())
             searches += 1
-    best, best_score, best_edges = max(attempts, key=lambda a: a[1])
+    best, terms = max(attempts, key=lambda a: a[1].score)
     if len(attempts) > 1:
         best = replace(best, evaluations=sum(a[0].evaluations for a in attempts),
                        stop_reason=f"best of {len(attempts)} searches: {best.stop_reason}")
     T = pose_vectors_to_matrices(best.x)[0]
-    return LocateResult(model.name, bool(best_score >= min_score), T, float(best.fitness),
-                        best_score, time.perf_counter() - t0, best, best_edges)
+    return LocateResult(model.name, bool(terms.score >= min_score), T, float(best.fitness),
+                        terms.score, time.perf_counter() - t0, best, terms.edge_evidence,
+                        terms.visible_outline)
 
 
 def _affine(search: SearchResult) -> NDArray[np.float64]:
