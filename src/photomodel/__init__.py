@@ -34,6 +34,9 @@ _LAZY: dict[str, str] = {
     "PinholeCamera": "photomodel.camera",
     "SearchSpace": "photomodel.search",
     "StereoRig": "photomodel.camera",
+    "TrackResult": "photomodel.track",
+    "Tracker": "photomodel.track",
+    "TrackerConfig": "photomodel.track",
     "build_model": "photomodel.model",
     "load_camera": "photomodel.camera",
     "load_model": "photomodel.model",
@@ -68,3 +71,4 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from photomodel.locate import LocateResult, Locator, PaperMethod
     from photomodel.model import PhotoModel, build_model, load_model, save_model
     from photomodel.search import SearchSpace
+    from photomodel.track import TrackerConfig, Tracker, TrackResult

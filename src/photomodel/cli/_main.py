@@ -28,6 +28,7 @@ from photomodel.cli import (
     _pick,
     _serve,
     _simulate,
+    _track,
     _warmup,
 )
 from photomodel.errors import PhotomodelError, one_line_input_warnings
@@ -56,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     _build.add_parser(sub)
     _locate.add_parser(sub)
     _identify.add_parser(sub)
+    _track.add_parser(sub)
     _models.add_parser(sub)
     _simulate.add_parser(sub)
     _experiment.add_parser(sub)
