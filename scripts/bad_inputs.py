@@ -654,6 +654,17 @@ def cases() -> list[Case]:
         _case("Options", "unknown option", "locate", "--bogus"),
         _case("Options", "`simulate --force` onto a file", "simulate", "--out", "notes.txt", *sim,
               "--force", prepare=keep_prepare, verify=keep_verify),
+        _case("Options", "unknown sequence kind", "simulate", "--out", "seq_kind",
+              "--sequences", "approach,orbit", verify=_absent("seq_kind")),
+        _case("Options", "frame rate 0", "simulate", "--out", "seq_fps0", "--sequences",
+              "conveyor", "--fps", "30,0", verify=_absent("seq_fps0")),
+        _case("Options", "frame rate not a number", "simulate", "--out", "seq_fps_text",
+              "--sequences", "conveyor", "--fps", "thirty", verify=_absent("seq_fps_text")),
+        _case("Options", "`simulate --sequences` into a folder of other files", "simulate",
+              "--out", "seq_old", "--sequences", "lost", "--force",
+              prepare=_writes("seq_old/notes.txt", lambda w: b"precious\n"),
+              verify=lambda w: None if [p.name for p in (w / "seq_old").iterdir()]
+              == ["notes.txt"] else "seq_old was changed"),
         _case("Options", "experiment into a directory another run holds", "experiment",
               "--out", "run", *exp, prepare=_locked_run,
               verify=lambda w: None if (w / "run" / "records.csv").read_text() == "kept\n"

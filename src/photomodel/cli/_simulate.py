@@ -1,4 +1,5 @@
-"""``photomodel simulate``: write a simulated dataset directory (DESIGN.md layout)."""
+"""``photomodel simulate``: write a simulated dataset directory (DESIGN.md layout), or with
+``--sequences`` stereo sequences with per-frame truth for a tracker."""
 
 from __future__ import annotations
 
@@ -35,9 +36,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "per article (1000 articles: 1.8 GB). Without --garments, no garment "
                         "scenes are written (target-less conditions such as no-target still "
                         "are)")
-    p.add_argument("--scenes", type=int, default=1, metavar="N",
+    p.add_argument("--scenes", type=int, default=None, metavar="N",
                    help="scenes per garment and condition, 1 to 10000 (default 1)")
-    p.add_argument("--conditions", default="paper",
+    p.add_argument("--conditions", default=None,
                    help="comma-separated conditions, or 'all' for every named one "
                         "(default: paper)")
     p.add_argument("--seed", type=int, default=0,
@@ -55,6 +56,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "their truth (default 0: none)")
     p.add_argument("--contact-sheet", type=Path, default=None, metavar="PNG",
                    help="also write a contact sheet of the dataset")
+    seq = p.add_argument_group(
+        "sequences", "instead of a dataset, write stereo sequences with per-frame truth for a "
+                     "tracker: OUT/<kind>-<fps>fps/<frame>/right.png, left.png and truth.json, "
+                     "with OUT/stereo.yaml and OUT/models/<garment>.npz (docs/contracts.md)")
+    seq.add_argument("--sequences", default=None, metavar="KINDS",
+                     help="comma-separated kinds: approach (the hand descends to 300 mm above "
+                          "the garment), conveyor (the garment rides across the view), "
+                          "occluder (a gripper sweeps over the garment), lost (the garment "
+                          "is lifted out of view and put down elsewhere), or 'all'; "
+                          "--garments names the one garment (default No.1)")
+    seq.add_argument("--fps", default=None, metavar="LIST",
+                     help="comma-separated frame rates, frames per second, each greater than "
+                          "0 and at most 240 (default 30)")
+    seq.add_argument("--seconds", type=float, default=None, metavar="S",
+                     help="length of each sequence, s, greater than 0 and at most 600 "
+                          "(default 2)")
+    seq.add_argument("--conveyor-mm-s", type=float, default=None, metavar="V",
+                     help="belt speed of a conveyor sequence, 100 to 300 mm/s (default 200)")
     p.set_defaults(run=run)
 
 
@@ -68,6 +87,20 @@ _OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.sequences is not None:
+        return _run_sequences(args)
+    for option, value in (("--fps", args.fps), ("--seconds", args.seconds),
+                          ("--conveyor-mm-s", args.conveyor_mm_s)):
+        if value is not None:
+            raise InputError(option, "applies only with --sequences")
+    if args.scenes is None:
+        args.scenes = 1
+    if args.conditions is None:
+        args.conditions = "paper"
+    return _run_dataset(args)
+
+
+def _run_dataset(args: argparse.Namespace) -> int:
     from photomodel.cli._options import as_option_error, check_int, check_seed
     from photomodel.cli._progress import count_progress
     from photomodel.image import write_image
@@ -142,4 +175,83 @@ def run(args: argparse.Namespace) -> int:
     if args.contact_sheet is not None:
         write_image(args.contact_sheet, contact_sheet(args.out))
         print(f"contact sheet: {args.contact_sheet}")
+    return 0
+
+
+_SEQUENCE_OPTIONS = {"kinds": "--sequences", "kind": "--sequences", "fps": "--fps",
+                     "seconds": "--seconds", "conveyor_mm_s": "--conveyor-mm-s",
+                     "garment": "--garments", "seed": "--seed"}
+
+
+def _frame_rates(text: str) -> list[float]:
+    """The frame rates of an ``--fps`` value (``30,60``); InputError naming ``--fps``."""
+    import math
+
+    from photomodel.sim._sequences import MAX_FPS
+
+    rates = []
+    for part in _split(text):
+        try:
+            rate = float(part)
+        except ValueError:
+            raise InputError("--fps", f"expected frame rates separated by commas (30,60), "
+                                      f"got {part!r}") from None
+        if not (math.isfinite(rate) and 0 < rate <= MAX_FPS):
+            raise InputError("--fps", f"expected frame rates greater than 0 and at most "
+                                      f"{MAX_FPS:g}, got {part}")
+        rates.append(rate)
+    if not rates:
+        raise InputError("--fps", "expected at least one frame rate")
+    return rates
+
+
+def _run_sequences(args: argparse.Namespace) -> int:
+    """``simulate --sequences``: validate the options, then :func:`write_sequences`."""
+    from photomodel.cli._options import as_option_error, check_float, check_seed
+    from photomodel.cli._progress import count_progress
+    from photomodel.sim import expand_garments, write_sequences
+    from photomodel.sim._sequences import CONVEYOR_MM_S_RANGE, MAX_SECONDS, SEQUENCE_KINDS
+
+    for option, given in (("--scenes", args.scenes is not None),
+                          ("--conditions", args.conditions is not None),
+                          ("--catalogue", args.catalogue is not None),
+                          ("--add-garment", bool(args.add_garment)),
+                          ("--calibration-views", args.calibration_views != 0),
+                          ("--contact-sheet", args.contact_sheet is not None)):
+        if given:
+            raise InputError(option, "does not apply with --sequences (it writes sequences, "
+                                     "not a dataset)")
+    kinds = list(SEQUENCE_KINDS) if args.sequences.strip() == "all" else _split(args.sequences)
+    if not kinds:
+        raise InputError("--sequences", f"expected kinds separated by commas, of "
+                                        f"{', '.join(SEQUENCE_KINDS)} or all")
+    for kind in kinds:
+        if kind not in SEQUENCE_KINDS:
+            raise InputError("--sequences", f"unknown kind {kind!r}; known: "
+                                            f"{', '.join(SEQUENCE_KINDS)} (or all)")
+    rates = _frame_rates("30" if args.fps is None else args.fps)
+    seconds = check_float("--seconds", 2.0 if args.seconds is None else args.seconds, 0.0,
+                          MAX_SECONDS, lo_open=True, unit="s")
+    speed = check_float("--conveyor-mm-s",
+                        200.0 if args.conveyor_mm_s is None else args.conveyor_mm_s,
+                        *CONVEYOR_MM_S_RANGE, unit="mm/s")
+    check_seed(args.seed)
+    try:
+        garments = expand_garments("No.1" if args.garments is None else args.garments)
+    except ValueError as exc:
+        raise InputError("--garments", str(exc)) from None
+    if len(garments) != 1:
+        raise InputError("--garments", f"with --sequences, name one garment, got "
+                                       f"{len(garments)}")
+    try:
+        with count_progress("simulating", sys.stderr.isatty()) as progress:
+            summary = write_sequences(args.out, kinds, rates, seconds=seconds,
+                                      garment=garments[0], seed=args.seed,
+                                      conveyor_mm_s=speed, overwrite=args.force,
+                                      progress=progress)
+    except ValueError as exc:   # an InputError (names its file) passes unchanged
+        raise as_option_error(exc, _SEQUENCE_OPTIONS, str(args.out)) from None
+    print(f"wrote {args.out}/: {len(summary.sequences)} sequence(s) "
+          f"({', '.join(summary.sequences)}), {summary.frames} frame(s), "
+          f"{summary.model.relative_to(summary.out).as_posix()}, stereo.yaml")
     return 0

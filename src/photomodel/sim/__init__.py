@@ -3,7 +3,8 @@
 Garments (the catalogue of the paper's 12, a simulated catalogue of up to 100,000 random
 articles with look-alike pairs, or a user's own), the model station and the hand stereo rig,
 named nuisances (:data:`CONDITIONS`), an exact renderer for flat items and a mesh renderer for
-wrinkled cloth, and :func:`write_dataset` (what ``photomodel simulate`` runs).
+wrinkled cloth, :func:`write_dataset` (what ``photomodel simulate`` runs) and stereo sequences
+with per-frame truth for trackers (:func:`write_sequences`, ``simulate --sequences``).
 
 Frames follow docs/contracts.md: a texture (and garment) frame has x along the texture's
 columns, y along its rows and z into the plane; ``T_a_b`` maps frame b to frame a; lengths in
@@ -80,6 +81,15 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "render_stereo_scene",
             "simulate_scene",
         ],
+        "_sequences": [
+            "SEQUENCE_KINDS",
+            "SequenceFrame",
+            "SequenceSettings",
+            "SequencesSummary",
+            "simulate_sequence",
+            "write_sequence",
+            "write_sequences",
+        ],
         "_sheet": ["contact_sheet"],
         "_station": ["station_model"],
         "_tables": ["make_table"],
@@ -124,6 +134,7 @@ __all__ = [
     "PLAID_HUES",
     "PLAIN_HUES",
     "POSITION_RANGE_MM",
+    "SEQUENCE_KINDS",
     "SIMILAR",
     "TABLES",
     "TABLE_GREY_BGR",
@@ -139,6 +150,9 @@ __all__ = [
     "PlaneTexture",
     "RenderedView",
     "RngLike",
+    "SequenceFrame",
+    "SequenceSettings",
+    "SequencesSummary",
     "SimulatedScene",
     "StereoScene",
     "Wrinkles",
@@ -186,6 +200,7 @@ __all__ = [
     "render_view_linear",
     "scene_rng",
     "simulate_scene",
+    "simulate_sequence",
     "station_model",
     "stripe_fabric",
     "table_plane",
@@ -193,4 +208,6 @@ __all__ = [
     "white_balance_gains",
     "write_calibration",
     "write_dataset",
+    "write_sequence",
+    "write_sequences",
 ]
