@@ -59,6 +59,11 @@ class TrackerConfig:
         Frame rate assumed for frames given without a timestamp.
     levels : tuple of int
         Sample levels refined in a tracked frame, coarse to fine.
+    fallback_levels : tuple of int
+        Levels refined again from the prediction when the first refinement fails a loss
+        test (a prediction farther off than the fine level's basin); empty: none.
+    score_level : int
+        Sample level of the reported score (the rigid score, no patch slack).
     margin_mm : float
         The windows reach this far (mm on the garment) beyond the predicted outline.
     min_visible : float
@@ -69,6 +74,9 @@ class TrackerConfig:
     max_jump_mm, max_jump_deg : float
         Lost when the tracked pose lies farther than this from the prediction (position, and
         rotation angle).
+    detect_x_mm, detect_y_mm : (float, float)
+        Detection's position ranges in camera 1 (the default box): the whole field of view
+        at the working distance, so that a garment entering the view is found.
     near_z_mm : (float, float)
         Depth range of the second search box of detection, for a hand close above the
         garment.
@@ -81,16 +89,21 @@ class TrackerConfig:
     """
 
     fps: float = 30.0
-    levels: tuple[int, ...] = (1, 0)
+    levels: tuple[int, ...] = (0,)
+    fallback_levels: tuple[int, ...] = (1, 0)
+    score_level: int = 1
     margin_mm: float = 15.0
     min_visible: float = 0.2
     min_contrast: float = 0.25
-    max_jump_mm: float = 25.0
-    max_jump_deg: float = 12.0
+    max_jump_mm: float = 40.0
+    max_jump_deg: float = 20.0
+    detect_x_mm: tuple[float, float] = (-420.0, 420.0)
+    detect_y_mm: tuple[float, float] = (-330.0, 330.0)
     near_z_mm: tuple[float, float] = (250.0, 560.0)
     near_below_mm: float = 520.0
     gauss_newton: GaussNewtonConfig = field(
-        default_factory=lambda: GaussNewtonConfig(max_iterations=12))
+        default_factory=lambda: GaussNewtonConfig(max_iterations=12, converged_steps=5.0,
+                                                  min_gain=1e-4))
     motion: ConstantVelocity = field(default_factory=ConstantVelocity)
 
     def __post_init__(self) -> None:
@@ -99,6 +112,12 @@ class TrackerConfig:
         if not self.levels or min(self.levels) < 0 or list(self.levels) != sorted(
                 self.levels, reverse=True):
             raise ValueError(f"levels: expected levels >= 0, coarse to fine, got {self.levels}")
+        if self.fallback_levels and (min(self.fallback_levels) < 0 or list(
+                self.fallback_levels) != sorted(self.fallback_levels, reverse=True)):
+            raise ValueError(f"fallback_levels: expected levels >= 0, coarse to fine, got "
+                             f"{self.fallback_levels}")
+        if self.score_level < 0:
+            raise ValueError(f"score_level: expected >= 0, got {self.score_level}")
         if not 0.0 <= self.min_visible <= 1.0:
             raise ValueError(f"min_visible: expected [0, 1], got {self.min_visible}")
         if self.margin_mm < 0 or self.max_jump_mm <= 0 or self.max_jump_deg <= 0:
@@ -125,7 +144,7 @@ class Tracker:
     model : PhotoModel
     rig : StereoRig
     space : SearchSpace, optional
-        Detection's search box (default: :class:`~photomodel.locate.Locator`'s).
+        Detection's search box (default: the Locator's, widened to ``config.detect_x_mm``, ``detect_y_mm``).
     config : TrackerConfig, optional
     min_score : float, optional
         Detection's threshold (default: the calibrated one, as ``Locator``).
@@ -142,6 +161,8 @@ class Tracker:
                  *, config: TrackerConfig | None = None, min_score: float | None = None
                  ) -> None:
         self.config = config or TrackerConfig()
+        space = space or SearchSpace.from_ranges(x_mm=self.config.detect_x_mm, y_mm=self.config.detect_y_mm,
+                                                 R_cam1_plane=rig.R_cam1_facing)
         self.locator = Locator(model, rig, space, min_score=min_score)
         self._near: Locator | None = None
         self.rig = rig
@@ -166,12 +187,16 @@ class Tracker:
         self._t_last: float | None = None
         self._state: _State | None = None
         self._last_seen: _State | None = None
+        self._visible = math.nan
+        self._found_frame = -2
         self.motion.reset()
 
     def _near_locator(self) -> Locator:
         if self._near is None:
             lo, hi = self.config.near_z_mm
-            space = SearchSpace.from_ranges(z_mm=(lo, hi), R_cam1_plane=self.rig.R_cam1_facing)
+            c = self.config
+            space = SearchSpace.from_ranges(c.detect_x_mm, c.detect_y_mm, (lo, hi),
+                                            R_cam1_plane=self.rig.R_cam1_facing)
             self._near = Locator(self.model, self.rig, space, min_score=self.min_score)
         return self._near
 
@@ -210,6 +235,7 @@ class Tracker:
                 note = (f"t_s {t:g} s does not advance from {self._t_last:g} s: tracking "
                         "restarted")
                 self._state = None
+                self._found_frame = -2
                 self.motion.reset()
         self._frame += 1
         self._t_last = t
@@ -238,7 +264,8 @@ class Tracker:
         uv1, uv2 = self.rig.project_poses(A, points)
         z = max(float(T[2, 3]), 1.0)
         margin = self.config.margin_mm * float(self.rig.cam1.K[0, 0]) / z
-        align = 2 ** (d + max(self.config.levels) + 1)
+        c = self.config
+        align = 2 ** (d + max((*c.levels, *c.fallback_levels, c.score_level)) + 1)
         w1 = window_of_points(uv1, self.rig.cam1.image_size, margin, align)
         w2 = window_of_points(uv2, self.rig.cam2.image_size, margin, align)
         return None if w1 is None or w2 is None else (w1, w2)
@@ -251,39 +278,35 @@ class Tracker:
         T_pred = self.motion.predict(t)
         assert T_pred is not None
         d = self._level_offset(float(T_pred[2, 3]))
-        outline = _outline_points(self.locator, state.blur_mm)
-        windows = self._windows(T_pred, state.strain, d, outline)
+        windows = self._windows(T_pred, state.strain, d, _thinned(self._outline(state)))
         if windows is None:
             return None, "lost: the garment's predicted outline lies outside the images"
-        features = WindowFeatures(self.rig, right, left, windows,
-                                  levels=max(c.levels) + 1, level_offset=d)
-        x = _pose_vector(T_pred)
-        strain = state.strain
-        search: SearchResult | None = None
+        deepest = max((*c.levels, *c.fallback_levels, c.score_level))
+        features = WindowFeatures(self.rig, right, left, windows, levels=deepest + 1,
+                                  level_offset=d)
+        why = ""
         evaluations = 0
-        for level in c.levels:
-            fitness = SoftFitness(self.locator.prepared, features, level,
-                                  optics_blur_mm=state.blur_mm)
-            search = gauss_newton_refine(fitness, x, self._track_space, level=level,
-                                         config=c.gauss_newton, strain=strain)
-            x, strain = search.x, np.asarray(search.strain, dtype=np.float64)
-            evaluations += search.evaluations
-        assert search is not None
-        T = pose_vectors_to_matrices(x[None])[0]
-        A = strained_matrices(x[None], strain)[0]
-        visible, contrast = _visible_agreement(fitness, A, windows)
-        jump_mm = float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3]))
-        jump_deg = _angle_deg(T[:3, :3], T_pred[:3, :3])
-        if visible < c.min_visible:
-            return None, f"lost: {visible:.0%} of the garment inside the images"
-        if contrast < c.min_contrast:
-            return None, f"lost: the visible part agrees too little ({contrast:.2f})"
-        if jump_mm > c.max_jump_mm or jump_deg > c.max_jump_deg:
-            return None, (f"lost: the pose jumped {jump_mm:.1f} mm, {jump_deg:.1f} deg from "
-                          "the prediction")
-        terms = score_terms(fitness, A, NO_SLACK)
+        for levels in (c.levels, c.fallback_levels):
+            if not levels:
+                continue
+            search, fitness, evaluations = self._refine(features, T_pred, state, levels,
+                                                        evaluations)
+            x = search.x
+            strain = np.asarray(search.strain, dtype=np.float64)
+            T = pose_vectors_to_matrices(x[None])[0]
+            A = strained_matrices(x[None], strain)[0]
+            why = self._loss(fitness, A, T, T_pred, windows)
+            if not why:
+                break
+        if why:
+            return None, why
+        visible = self._visible
+        score_fitness = SoftFitness(self.locator.prepared, features, c.score_level,
+                                    optics_blur_mm=state.blur_mm)
+        terms = score_terms(score_fitness, A, NO_SLACK)
         self._state = _State(T, strain, state.blur_mm)
         self._last_seen = self._state
+        self._found_frame = frame
         self.motion.update(T, t)
         result = replace(search, evaluations=evaluations,
                          stop_reason=f"tracked: {search.stop_reason}")
@@ -291,6 +314,41 @@ class Tracker:
                             time.perf_counter() - t0, result, terms.edge_evidence,
                             terms.visible_outline)
         return _tracked(base, "track", frame, t, visible), ""
+
+    def _outline(self, state: _State) -> NDArray[np.float64]:
+        return _outline_points(self.locator, state.blur_mm)
+
+    def _refine(self, features: WindowFeatures, T_pred: NDArray[np.float64], state: _State,
+                levels: tuple[int, ...], evaluations: int
+                ) -> tuple[SearchResult, SoftFitness, int]:
+        """Gauss-Newton with the strain at ``levels`` in turn, from the prediction."""
+        x = _pose_vector(T_pred)
+        strain = state.strain
+        for level in levels:
+            fitness = SoftFitness(self.locator.prepared, features, level,
+                                  optics_blur_mm=state.blur_mm)
+            search = gauss_newton_refine(fitness, x, self._track_space, level=level,
+                                         config=self.config.gauss_newton, strain=strain)
+            x, strain = search.x, np.asarray(search.strain, dtype=np.float64)
+            evaluations += search.evaluations
+        return search, fitness, evaluations
+
+    def _loss(self, fitness: SoftFitness, A: NDArray[np.float64], T: NDArray[np.float64],
+              T_pred: NDArray[np.float64], windows: tuple[Window, Window]) -> str:
+        """Why a tracked pose is lost ("" when it is not); keeps its visible share."""
+        c = self.config
+        visible, contrast = _visible_agreement(fitness, A, windows)
+        self._visible = visible
+        jump_mm = float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3]))
+        jump_deg = _angle_deg(T[:3, :3], T_pred[:3, :3])
+        if visible < c.min_visible:
+            return f"lost: {visible:.0%} of the garment inside the images"
+        if contrast < c.min_contrast:
+            return f"lost: the visible part agrees too little ({contrast:.2f})"
+        if jump_mm > c.max_jump_mm or jump_deg > c.max_jump_deg:
+            return (f"lost: the pose jumped {jump_mm:.1f} mm, {jump_deg:.1f} deg from the "
+                    "prediction")
+        return ""
 
     # -- detection ------------------------------------------------------------------------
 
@@ -307,7 +365,8 @@ class Tracker:
             if r.found:
                 break
         assert best is not None
-        self.motion.reset()
+        if self._found_frame != frame - 1:    # a pose in the last frame keeps the velocity
+            self.motion.reset()
         if not best.found:
             self._state = None
             return _tracked(replace(best, found=False), "lost", frame, t, math.nan)
@@ -315,6 +374,7 @@ class Tracker:
         strain = best.strain if best.strain is not None else np.zeros(3)
         self._state = _State(best.T_cam1_model, strain, blur)
         self._last_seen = self._state
+        self._found_frame = frame
         self.motion.update(best.T_cam1_model, t)
         points = _outline_points(self.locator, blur)
         visible = _inside_share(self.rig, best.A_cam1_model, points)
@@ -361,6 +421,11 @@ def _outline_points(locator: Locator, blur_mm: float) -> NDArray[np.float64]:
     return np.asarray(samples.p_out, dtype=np.float64)
 
 
+def _thinned(points: NDArray[np.float64], most: int = 400) -> NDArray[np.float64]:
+    """Every k-th of ``points`` (N, ...), at most about ``most`` of them."""
+    return points[:: max(1, len(points) // most)]
+
+
 def _inside_share(rig: StereoRig, A: NDArray[np.float64], points: NDArray[np.float64]
                   ) -> float:
     """Share of ``points`` (N, 3) that the map ``A`` puts inside both whole images."""
@@ -381,7 +446,7 @@ def _visible_agreement(fitness: SoftFitness, A: NDArray[np.float64],
     rig = fitness.features.rig
     s = fitness.samples
     shares = []
-    for points in (s.p_in, s.p_out):
+    for points in (_thinned(s.p_in), _thinned(s.p_out)):
         uv1, uv2 = rig.project_poses(A, points)
         cams = []
         for uv, w in ((uv1, windows[0]), (uv2, windows[1])):
