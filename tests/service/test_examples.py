@@ -185,3 +185,24 @@ def test_pose_fields_normalises_and_refuses_no_rotation(ros2_forward) -> None:
     ps["pose"]["orientation"]["w"] = 0.0
     with pytest.raises(ValueError, match="not a rotation"):
         ros2_forward.pose_fields(ps)
+
+
+def test_track_client_streams_a_sequence(service, cell_data, tmp_path) -> None:
+    """The /track example run as a user runs it: a folder of frames sent at 30 fps, one line
+    per tracked frame."""
+    import shutil
+
+    scene = cell_data.scene_of("No.3")
+    for k in range(5):
+        shutil.copytree(scene, tmp_path / "seq" / f"{k:06d}")
+    run = subprocess.run([sys.executable, str(EXAMPLES / "track_client.py"), service.url,
+                          "No.3", str(tmp_path / "seq"), "30"], capture_output=True, text=True,
+                         timeout=TIMEOUT_S, check=False)
+    assert run.returncode == 0 and run.stderr == "", run
+    lines = run.stdout.splitlines()
+    assert lines and lines[0].startswith("frame 0: detect x=")
+    assert all(re.match(r"frame \d+: (detect|track) x=", line) for line in lines)
+    bad = subprocess.run([sys.executable, str(EXAMPLES / "track_client.py"), service.url,
+                          "nope", str(tmp_path / "seq")], capture_output=True, text=True,
+                         timeout=TIMEOUT_S, check=False)
+    assert bad.returncode == 1 and "no model named 'nope'" in bad.stderr

@@ -28,12 +28,13 @@ from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 from starlette.requests import ClientDisconnect, Request
 from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
-from starlette.routing import Route
+from starlette.routing import Route, WebSocketRoute
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
 from photomodel.service._threads import SearchThreads
+from photomodel.service._track_socket import track_endpoint
 
 __all__ = ["create_app"]
 
@@ -102,7 +103,8 @@ def _endpoint(path: str) -> str:
         return "/models/{name}" + ("/preview.png" if len(parts) > 2 else "")
     if head == "results" and len(parts) >= 2:
         return "/results/{id}" + ("/overlay.png" if len(parts) > 2 else "")
-    known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static"}
+    known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static",
+             "track"}
     return f"/{head}" if head in known else "other"
 
 
@@ -202,6 +204,10 @@ class _Guard:
         await HTMLResponse(_LOGIN_PAGE.format(note=""))(scope, receive, send)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "websocket" and not self._authorised(scope):
+            await receive()                    # the connect event, then refuse (HTTP 403)
+            await send({"type": "websocket.close", "code": 1008})
+            return
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
@@ -496,6 +502,7 @@ def create_app(cell: CellService, *, warm: bool = True,
         Route("/results/{id}/overlay.png", overlay),
         Route("/stats", stats),
         Route("/metrics", prometheus),
+        WebSocketRoute("/track", track_endpoint(cell, metrics.registry, _finite)),
     ]
     app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
         PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,

@@ -406,6 +406,14 @@ class CellService:
                 return identifier.locator(name)
         raise NotFound("model", f"no model named {name!r}")
 
+    def locator(self, name: str) -> Locator:
+        """Model ``name``'s prepared Locator; NotFound for a name the library does not
+        hold."""
+        identifier = self.identifier
+        if name not in identifier.entries:
+            raise NotFound("model", f"no model named {name!r}")
+        return self._locator(identifier, name)
+
     def locate(self, model: str, right: bytes, left: bytes, seed: int | None = None
                ) -> dict[str, Any]:
         """``locate --json``'s object for ``model`` in the pair, plus ``id`` and

@@ -1,0 +1,216 @@
+"""WebSocket ``/track?model=NAME``: stereo frames in, one pose per frame out.
+
+A frame is one binary message: a 4-byte big-endian length ``n``, ``n`` bytes of a JSON
+header, then camera 1's image and camera 2's image (:func:`encode_frame`). The header says
+``right_bytes`` and ``left_bytes`` (the images' lengths), ``encoding`` (``"png"``, the
+default: any image file OpenCV reads; or ``"raw"``: ``shape`` ``[H, W, 3]`` uint8 BGR pixels)
+and optionally ``t_s`` (the frame's time, s). A text message ``{"reset": true}`` starts the
+tracking over.
+
+Each processed frame is answered by one text message: the ``track --json`` object
+(:meth:`~photomodel.track.TrackResult.to_json_dict`) plus ``pose_stamped`` (null when lost),
+``received`` (frames received so far) and ``dropped`` (frames dropped so far). A bad frame is
+answered by ``{"error": ..., "received": ...}`` and the stream goes on. The newest frame wins:
+while a frame is being tracked, only the latest one that arrives is kept, the ones it
+replaces are counted as dropped (and in ``/metrics``), so a slow client never makes the
+server queue frames.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+import time
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+import anyio
+import numpy as np
+from numpy.typing import NDArray
+from prometheus_client import CollectorRegistry, Counter, Histogram
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from photomodel.errors import InputError, PhotomodelError
+
+__all__ = ["decode_frame", "encode_frame", "track_endpoint"]
+
+_LENGTH = struct.Struct(">I")
+MAX_HEADER_BYTES = 4096
+"""Largest JSON header of a frame message."""
+POLICY_VIOLATION = 1008
+"""WebSocket close code of a refused stream (unknown model, bad query)."""
+
+
+def encode_frame(right: bytes, left: bytes, *, t_s: float | None = None,
+                 shape: tuple[int, int, int] | None = None) -> bytes:
+    """One frame message: PNG (or other image file) bytes of both cameras, or raw BGR pixels
+    with ``shape`` (H, W, 3)."""
+    header: dict[str, Any] = {"right_bytes": len(right), "left_bytes": len(left),
+                              "encoding": "png" if shape is None else "raw"}
+    if shape is not None:
+        header["shape"] = list(shape)
+    if t_s is not None:
+        header["t_s"] = float(t_s)
+    head = json.dumps(header).encode()
+    return _LENGTH.pack(len(head)) + head + right + left
+
+
+def decode_frame(message: bytes) -> tuple[NDArray[np.uint8], NDArray[np.uint8], float | None]:
+    """Camera 1's and camera 2's images (H, W, 3) uint8 BGR and the time of a frame message.
+
+    Raises
+    ------
+    InputError
+        Naming what is wrong with the message.
+    """
+    from photomodel.image import decode_color_images
+
+    if len(message) < _LENGTH.size:
+        raise InputError("frame", "shorter than its 4-byte header length")
+    (n,) = _LENGTH.unpack_from(message)
+    if n > MAX_HEADER_BYTES or _LENGTH.size + n > len(message):
+        raise InputError("frame", f"header length {n} is not within the message")
+    try:
+        header = json.loads(message[_LENGTH.size:_LENGTH.size + n])
+        if not isinstance(header, dict):
+            raise ValueError("not an object")
+        sizes = int(header["right_bytes"]), int(header["left_bytes"])
+        encoding = str(header.get("encoding", "png"))
+        t_s = header.get("t_s")
+        t_s = None if t_s is None else float(t_s)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InputError("frame header", f"expected JSON with right_bytes and left_bytes "
+                                         f"({exc})") from None
+    if t_s is not None and not math.isfinite(t_s):
+        raise InputError("frame header", f"t_s: expected a finite time, got {t_s}")
+    start = _LENGTH.size + n
+    if min(sizes) < 1 or start + sum(sizes) != len(message):
+        raise InputError("frame", f"right_bytes + left_bytes ({sum(sizes)}) do not match the "
+                                  f"{len(message) - start} bytes after the header")
+    right_b = message[start:start + sizes[0]]
+    left_b = message[start + sizes[0]:]
+    if encoding == "png":
+        right, left = decode_color_images([(right_b, "right image"), (left_b, "left image")])
+        return right, left, t_s
+    if encoding != "raw":
+        raise InputError("frame header", f"encoding: expected 'png' or 'raw', got {encoding!r}")
+    try:
+        shape = tuple(int(v) for v in header["shape"])
+    except (KeyError, TypeError, ValueError):
+        raise InputError("frame header", "raw frames need shape [H, W, 3]") from None
+    if len(shape) != 3 or shape[2] != 3 or min(shape) < 1:
+        raise InputError("frame header", f"shape: expected [H, W, 3], got {list(shape)}")
+    if sizes[0] != int(np.prod(shape)) or sizes[1] != int(np.prod(shape)):
+        raise InputError("frame", f"raw images of shape {list(shape)} take "
+                                  f"{int(np.prod(shape))} bytes each, got {list(sizes)}")
+    return (np.frombuffer(right_b, np.uint8).reshape(shape).copy(),
+            np.frombuffer(left_b, np.uint8).reshape(shape).copy(), t_s)
+
+
+class _TrackMetrics:
+    """The stream's Prometheus metrics, in the service's registry."""
+
+    def __init__(self, registry: CollectorRegistry) -> None:
+        self.frames = Counter("photomodel_track_frames", "Frames received on /track, by outcome",
+                              ["outcome"], registry=registry)
+        self.seconds = Histogram("photomodel_track_seconds", "Wall time of a tracked frame",
+                                 buckets=(0.002, 0.004, 0.008, 0.016, 0.033, 0.066, 0.1, 0.25,
+                                          0.5, 1.0), registry=registry)
+
+
+def track_endpoint(cell: Any, registry: CollectorRegistry,
+                   finite: Callable[[Any], Any]) -> Callable[[WebSocket], Awaitable[None]]:
+    """The ``/track`` WebSocket endpoint of the cell service ``cell`` (a
+    :class:`~photomodel.service.CellService`), its metrics in ``registry``; ``finite`` maps
+    NaN to None in an answer."""
+    from photomodel.service._ros import pose_stamped
+    from photomodel.track import Tracker
+
+    metrics = _TrackMetrics(registry)
+
+    async def endpoint(ws: WebSocket) -> None:
+        await ws.accept()
+        name = ws.query_params.get("model")
+        try:
+            if not name:
+                raise InputError("model", "expected /track?model=NAME")
+            locator = await anyio.to_thread.run_sync(cell.locator, name)
+            tracker = await anyio.to_thread.run_sync(Tracker, locator.model, cell.rig)
+        except PhotomodelError as exc:
+            await ws.send_json({"error": str(exc)})
+            await ws.close(code=POLICY_VIOLATION)
+            return
+        state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
+                                 "reset": False}
+        arrived = anyio.Event()
+
+        def track(message: bytes) -> dict[str, Any]:
+            right, left, t_s = decode_frame(message)
+            result = tracker(right, left, t_s=t_s)
+            answer = result.to_json_dict()
+            answer["pose_stamped"] = (None if result.mode == "lost"
+                                      else pose_stamped(result.T_cam1_model, time.time()))
+            return answer
+
+        async def receive() -> None:
+            nonlocal arrived
+            try:
+                while True:
+                    message = await ws.receive()
+                    if message["type"] == "websocket.disconnect":
+                        break
+                    if message.get("bytes") is not None:
+                        state["received"] += 1
+                        if state["frame"] is not None:
+                            state["dropped"] += 1
+                            metrics.frames.labels("dropped").inc()
+                        state["frame"] = message["bytes"]
+                    elif message.get("text") is not None:
+                        state["reset"] = _is_reset(message["text"])
+                    arrived.set()
+            finally:
+                state["open"] = False
+                arrived.set()
+
+        async def answer() -> None:
+            nonlocal arrived
+            while True:
+                await arrived.wait()
+                arrived = anyio.Event()
+                if not state["open"]:
+                    return
+                if state["reset"]:
+                    state["reset"] = False
+                    tracker.reset()
+                frame, state["frame"] = state["frame"], None
+                if frame is None:
+                    continue
+                t0 = time.perf_counter()
+                try:
+                    out = await anyio.to_thread.run_sync(track, frame)
+                    metrics.frames.labels("tracked").inc()
+                    metrics.seconds.observe(time.perf_counter() - t0)
+                except PhotomodelError as exc:
+                    metrics.frames.labels("bad").inc()
+                    out = {"error": str(exc)}
+                out.update(received=state["received"], dropped=state["dropped"])
+                try:
+                    await ws.send_text(json.dumps(finite(out), allow_nan=False))
+                except (WebSocketDisconnect, RuntimeError):
+                    return
+
+        async with anyio.create_task_group() as tasks:
+            tasks.start_soon(receive)
+            await answer()
+            tasks.cancel_scope.cancel()
+
+    return endpoint
+
+
+def _is_reset(text: str) -> bool:
+    try:
+        doc = json.loads(text)
+    except ValueError:
+        return False
+    return isinstance(doc, dict) and bool(doc.get("reset"))
