@@ -187,7 +187,6 @@ class Tracker:
         self._t_last: float | None = None
         self._state: _State | None = None
         self._last_seen: _State | None = None
-        self._visible = math.nan
         self._found_frame = -2
         self.motion.reset()
 
@@ -295,12 +294,11 @@ class Tracker:
             strain = np.asarray(search.strain, dtype=np.float64)
             T = pose_vectors_to_matrices(x[None])[0]
             A = strained_matrices(x[None], strain)[0]
-            why = self._loss(fitness, A, T, T_pred, windows)
+            why, visible = self._loss(fitness, A, T, T_pred, windows)
             if not why:
                 break
         if why:
             return None, why
-        visible = self._visible
         score_fitness = SoftFitness(self.locator.prepared, features, c.score_level,
                                     optics_blur_mm=state.blur_mm)
         terms = score_terms(score_fitness, A, NO_SLACK)
@@ -334,21 +332,22 @@ class Tracker:
         return search, fitness, evaluations
 
     def _loss(self, fitness: SoftFitness, A: NDArray[np.float64], T: NDArray[np.float64],
-              T_pred: NDArray[np.float64], windows: tuple[Window, Window]) -> str:
-        """Why a tracked pose is lost ("" when it is not); keeps its visible share."""
+              T_pred: NDArray[np.float64], windows: tuple[Window, Window]
+              ) -> tuple[str, float]:
+        """Why a tracked pose is lost ("" when it is not), and its visible share."""
         c = self.config
         visible, contrast = _visible_agreement(fitness, A, windows)
-        self._visible = visible
         jump_mm = float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3]))
         jump_deg = _angle_deg(T[:3, :3], T_pred[:3, :3])
+        why = ""
         if visible < c.min_visible:
-            return f"lost: {visible:.0%} of the garment inside the images"
-        if contrast < c.min_contrast:
-            return f"lost: the visible part agrees too little ({contrast:.2f})"
-        if jump_mm > c.max_jump_mm or jump_deg > c.max_jump_deg:
-            return (f"lost: the pose jumped {jump_mm:.1f} mm, {jump_deg:.1f} deg from the "
-                    "prediction")
-        return ""
+            why = f"lost: {visible:.0%} of the garment inside the images"
+        elif contrast < c.min_contrast:
+            why = f"lost: the visible part agrees too little ({contrast:.2f})"
+        elif jump_mm > c.max_jump_mm or jump_deg > c.max_jump_deg:
+            why = (f"lost: the pose jumped {jump_mm:.1f} mm, {jump_deg:.1f} deg from the "
+                   "prediction")
+        return why, visible
 
     # -- detection ------------------------------------------------------------------------
 
