@@ -18,7 +18,8 @@ Per stereo pair (a frame), with its timestamp:
    (:class:`~photomodel.locate.Locator`), first a local search from the last pose when
    there is one, then the whole search box; when the hand is close, a second box drawn for
    the near range (``TrackerConfig.near_z_mm``) first. A frame with no detection is
-   ``lost`` and has no pose.
+   ``lost`` and has no pose. A detection where the last velocity predicts the garment
+   keeps that velocity (a garment still moving after a loss); elsewhere it starts at rest.
 """
 
 from __future__ import annotations
@@ -187,7 +188,6 @@ class Tracker:
         self._t_last: float | None = None
         self._state: _State | None = None
         self._last_seen: _State | None = None
-        self._found_frame = -2
         self.motion.reset()
 
     def _near_locator(self) -> Locator:
@@ -234,7 +234,6 @@ class Tracker:
                 note = (f"t_s {t:g} s does not advance from {self._t_last:g} s: tracking "
                         "restarted")
                 self._state = None
-                self._found_frame = -2
                 self.motion.reset()
         self._frame += 1
         self._t_last = t
@@ -304,7 +303,6 @@ class Tracker:
         terms = score_terms(score_fitness, A, NO_SLACK)
         self._state = _State(T, strain, state.blur_mm)
         self._last_seen = self._state
-        self._found_frame = frame
         self.motion.update(T, t)
         result = replace(search, evaluations=evaluations,
                          stop_reason=f"tracked: {search.stop_reason}")
@@ -364,8 +362,9 @@ class Tracker:
             if r.found:
                 break
         assert best is not None
-        if self._found_frame != frame - 1:    # a pose in the last frame keeps the velocity
-            self.motion.reset()
+        T_pred = self.motion.predict(t)
+        if T_pred is None or not self._close(best.T_cam1_model, T_pred):
+            self.motion.reset()      # put down elsewhere: its old velocity says nothing
         if not best.found:
             self._state = None
             return _tracked(replace(best, found=False), "lost", frame, t, math.nan)
@@ -373,11 +372,17 @@ class Tracker:
         strain = best.strain if best.strain is not None else np.zeros(3)
         self._state = _State(best.T_cam1_model, strain, blur)
         self._last_seen = self._state
-        self._found_frame = frame
         self.motion.update(best.T_cam1_model, t)
         points = _outline_points(self.locator, blur)
         visible = _inside_share(self.rig, best.A_cam1_model, points)
         return _tracked(best, "detect", frame, t, visible)
+
+    def _close(self, T: NDArray[np.float64], T_pred: NDArray[np.float64]) -> bool:
+        """Whether a detected pose lies where the motion went on (within the jump limits of
+        the prediction): then the velocity is kept."""
+        c = self.config
+        return (float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3])) <= c.max_jump_mm
+                and _angle_deg(T[:3, :3], T_pred[:3, :3]) <= c.max_jump_deg)
 
     def _detections(self, last: _State | None) -> list[tuple[Locator, NDArray[np.float64] | None]]:
         """The searches of a detection, in turn: from the last pose, then the boxes."""
