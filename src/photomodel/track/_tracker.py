@@ -95,7 +95,7 @@ class TrackerConfig:
     score_level: int = 1
     margin_mm: float = 15.0
     min_visible: float = 0.2
-    min_contrast: float = 0.25
+    min_contrast: float = 0.5
     max_jump_mm: float = 40.0
     max_jump_deg: float = 20.0
     detect_x_mm: tuple[float, float] = (-420.0, 420.0)
