@@ -11,7 +11,7 @@ Per sequence, one new ``Tracker(model, rig)`` is called on every frame in order
 (``tracker(right, left, t_s=frame.t_s, rng=...)``); one ``Locator(model, rig)`` per garment
 (the baseline: a full search of the pair) is called on every ``--every``-th frame and on every
 frame of the still stretch (below), before or after the tracker in turns (so that the
-machine's state falls on both alike). numba runs on one thread (``NUMBA_NUM_THREADS=1`` is set
+machine's state falls on both alike). numba runs on one thread (run as a script, ``NUMBA_NUM_THREADS=1`` is set
 before numba is imported, unless the environment sets it), and both are warmed up, untimed,
 before the first sequence of a garment.
 
@@ -52,7 +52,8 @@ from __future__ import annotations
 
 import os
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")   # before numba is imported
+if __name__ == "__main__":     # run as the benchmark; imported (its tests) it changes nothing
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")   # before numba is imported
 
 import argparse  # noqa: E402
 import hashlib  # noqa: E402
