@@ -103,13 +103,14 @@ class ModelDescriptor:
     version: int = DESCRIPTOR_VERSION
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The descriptor as stored in a library index (plain JSON types, rounded)."""
-        return {"version": self.version, "area_mm2": round(self.area_mm2, 2),
-                "size_mm": [round(v, 2) for v in self.size_mm],
-                "moments_mm2": [round(v, 2) for v in self.moments_mm2],
-                "mean_lab": [round(v, 4) for v in self.mean_lab],
+        """The descriptor as stored in a library index (plain JSON types, rounded; a
+        positive value stays positive)."""
+        return {"version": self.version, "area_mm2": _rounded(self.area_mm2, 2),
+                "size_mm": [_rounded(v, 2) for v in self.size_mm],
+                "moments_mm2": [_rounded(v, 2) for v in self.moments_mm2],
+                "mean_lab": [_rounded(v, 4) for v in self.mean_lab],
                 "colour_bins": [int(b) for b in self.colour_bins],
-                "colour_weights": [round(float(w), 5) for w in self.colour_weights]}
+                "colour_weights": [_rounded(w, 5) for w in self.colour_weights]}
 
     @classmethod
     def from_json_dict(cls, d: Any) -> ModelDescriptor:
@@ -168,6 +169,13 @@ def model_mm_per_px(model: PhotoModel) -> float:
     K = np.asarray(model.meta.get("camera_K", [[760.0, 0, 0], [0, 760.0, 0], [0, 0, 1]]),
                    dtype=np.float64)
     return float(model.meta.get("distance_mm", 400.0)) / float(np.sqrt(K[0, 0] * K[1, 1]))
+
+
+def _rounded(value: float, decimals: int) -> float:
+    """``value`` rounded to ``decimals``, or to six significant digits where that would
+    make it 0 (a positive size stays positive when read back)."""
+    r = round(float(value), decimals)
+    return r if r != 0.0 or value == 0 else float(f"{float(value):.6g}")
 
 
 def colour_grid_coords(features: NDArray[np.floating]) -> NDArray[np.float64]:
