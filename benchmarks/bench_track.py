@@ -11,8 +11,9 @@ Per sequence, one new ``Tracker(model, rig)`` is called on every frame in order
 (``tracker(right, left, t_s=frame.t_s, rng=...)``); one ``Locator(model, rig)`` per garment
 (the baseline: a full search of the pair) is called on every ``--every``-th frame and on every
 frame of the still stretch (below), before or after the tracker in turns (so that the
-machine's state falls on both alike). numba runs on one thread (run as a script, ``NUMBA_NUM_THREADS=1`` is set
-before numba is imported, unless the environment sets it), and both are warmed up, untimed,
+machine's state falls on both alike). numba runs on one thread (run as a script,
+``NUMBA_NUM_THREADS=1`` is set before numba is imported, unless the environment sets it), and
+both are warmed up, untimed,
 before the first sequence of a garment.
 
 Reported per sequence (a row), from the per-frame list that the row keeps too:

@@ -71,4 +71,4 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from photomodel.locate import LocateResult, Locator, PaperMethod
     from photomodel.model import PhotoModel, build_model, load_model, save_model
     from photomodel.search import SearchSpace
-    from photomodel.track import TrackerConfig, Tracker, TrackResult
+    from photomodel.track import Tracker, TrackerConfig, TrackResult

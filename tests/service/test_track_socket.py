@@ -9,7 +9,7 @@ import cv2
 import httpx
 import numpy as np
 import pytest
-from websockets.exceptions import InvalidStatus
+from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect
 
 from photomodel.errors import InputError
@@ -85,7 +85,7 @@ def test_raw_pixels_are_taken_too(service, cell_data) -> None:
 def test_an_unknown_model_is_refused_with_the_reason(service) -> None:
     with _ws(service, "model=nope") as ws:
         assert "no model named 'nope'" in json.loads(ws.recv(timeout=30))["error"]
-        with pytest.raises(Exception):
+        with pytest.raises(ConnectionClosed):
             ws.recv(timeout=30)
         assert ws.close_code == 1008
 

@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from photomodel.errors import InputError
 from photomodel.experiments._run import (
@@ -45,7 +44,7 @@ from photomodel.experiments._run import (
     write_config,
 )
 from photomodel.experiments._trials import ExperimentConfig, _model
-from photomodel.geometry import in_plane_angle_rad
+from photomodel.geometry import in_plane_angle_rad, rotation_angle_deg
 
 __all__ = [
     "IDENTIFY_COLUMNS",
@@ -155,10 +154,6 @@ def _rig(conditions: tuple[str, ...]) -> Any:
     return hand_stereo_rig(lens=lenses.pop())
 
 
-def _rotation_error_deg(R_est: NDArray[np.float64], R_true: NDArray[np.float64]) -> float:
-    c = (np.trace(R_est.T @ R_true) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
-
 
 def _wrap_deg(angle: float) -> float:
     return float(-((-angle + 180.0) % 360.0 - 180.0))
@@ -224,13 +219,13 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
             T = true.result.T_cam1_model
             row.update(true_searched=1, true_score=true.result.score,
                        true_err_pos_mm=float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
-                       true_err_rot_deg=_rotation_error_deg(T[:3, :3], T_true[:3, :3]))
+                       true_err_rot_deg=rotation_angle_deg(T[:3, :3], T_true[:3, :3]))
         if result.best is not None:
             T = result.best.T_cam1_model
             err = T[:3, 3] - T_true[:3, 3]
             th = np.degrees(in_plane_angle_rad(T[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
             row.update(err_pos_mm=float(np.linalg.norm(err)),
-                       err_rot_deg=_rotation_error_deg(T[:3, :3], T_true[:3, :3]),
+                       err_rot_deg=rotation_angle_deg(T[:3, :3], T_true[:3, :3]),
                        err_x_mm=float(err[0]), err_y_mm=float(err[1]), err_z_mm=float(err[2]),
                        err_theta_deg=_wrap_deg(float(th)))
     return row

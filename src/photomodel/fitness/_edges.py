@@ -109,9 +109,9 @@ class ScoreTerms:
     visible_outline : float
         The outline evidence of the cells on the model's outline whose inside agrees (inner
         agreement over :data:`AGREEING_CELL`), each at its best slide, in [0, 1]; 0 when no
-        outline cell agrees, NaN for samples without outline pairs. The garment, even half hidden, shows its outline where its
-        inside is seen (0.65-0.95); a model lying inside a larger region of its colour does
-        not (0.3-0.45).
+        outline cell agrees, NaN for samples without outline pairs. The garment, even half
+        hidden, shows its outline where its inside is seen (0.65-0.95); a model lying inside
+        a larger region of its colour does not (0.3-0.45).
     visible_outline_cells : int
         The outline cells that agree, of which ``visible_outline`` is the mean.
     """

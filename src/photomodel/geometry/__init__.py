@@ -18,7 +18,8 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "rotation_from_eps",
             "strained_matrices",
         ],
-        "_transforms": ["invert_transform", "make_transform", "transform_points"],
+        "_transforms": ["invert_transform", "make_transform", "rotation_angle_deg",
+                        "transform_points"],
     },
 )
 
@@ -34,6 +35,7 @@ __all__ = [
     "pose_maps_kernel",
     "pose_vectors_to_matrices",
     "quat_wxyz_from_matrix",
+    "rotation_angle_deg",
     "rotation_from_eps",
     "strained_matrices",
     "transform_points",

@@ -30,3 +30,10 @@ def transform_points(T_a_b: ArrayLike, points_b: ArrayLike) -> NDArray[np.float6
     T = np.asarray(T_a_b, dtype=np.float64)
     p = np.asarray(points_b, dtype=np.float64)
     return p @ T[:3, :3].T + T[:3, 3]
+
+
+def rotation_angle_deg(R_a: ArrayLike, R_b: ArrayLike) -> float:
+    """Angle (deg) of the rotation between two rotation matrices (3, 3): ``R_a^T R_b``'s."""
+    c = (float(np.trace(np.asarray(R_a, dtype=np.float64).T @ np.asarray(R_b, np.float64)))
+         - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))

@@ -35,7 +35,12 @@ from photomodel.camera import StereoRig
 from photomodel.errors import InputError
 from photomodel.fitness import SoftFitness, StereoFeatures, score_terms
 from photomodel.fitness._edges import NO_SLACK
-from photomodel.geometry import eps_from_rotation, pose_vectors_to_matrices, strained_matrices
+from photomodel.geometry import (
+    eps_from_rotation,
+    pose_vectors_to_matrices,
+    rotation_angle_deg,
+    strained_matrices,
+)
 from photomodel.locate import LocateResult, Locator
 from photomodel.model import PhotoModel
 from photomodel.search import GaussNewtonConfig, SearchSpace, gauss_newton_refine
@@ -145,7 +150,8 @@ class Tracker:
     model : PhotoModel
     rig : StereoRig
     space : SearchSpace, optional
-        Detection's search box (default: the Locator's, widened to ``config.detect_x_mm``, ``detect_y_mm``).
+        Detection's search box (default: the Locator's, widened to ``config.detect_x_mm``
+        and ``detect_y_mm``).
     config : TrackerConfig, optional
     min_score : float, optional
         Detection's threshold (default: the calibrated one, as ``Locator``).
@@ -162,7 +168,8 @@ class Tracker:
                  *, config: TrackerConfig | None = None, min_score: float | None = None
                  ) -> None:
         self.config = config or TrackerConfig()
-        space = space or SearchSpace.from_ranges(x_mm=self.config.detect_x_mm, y_mm=self.config.detect_y_mm,
+        c = self.config
+        space = space or SearchSpace.from_ranges(x_mm=c.detect_x_mm, y_mm=c.detect_y_mm,
                                                  R_cam1_plane=rig.R_cam1_facing)
         self.locator = Locator(model, rig, space, min_score=min_score)
         self._near: Locator | None = None
@@ -336,7 +343,7 @@ class Tracker:
         c = self.config
         visible, contrast = _visible_agreement(fitness, A, windows)
         jump_mm = float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3]))
-        jump_deg = _angle_deg(T[:3, :3], T_pred[:3, :3])
+        jump_deg = rotation_angle_deg(T[:3, :3], T_pred[:3, :3])
         why = ""
         if visible < c.min_visible:
             why = f"lost: {visible:.0%} of the garment inside the images"
@@ -382,7 +389,7 @@ class Tracker:
         the prediction): then the velocity is kept."""
         c = self.config
         return (float(np.linalg.norm(T[:3, 3] - T_pred[:3, 3])) <= c.max_jump_mm
-                and _angle_deg(T[:3, :3], T_pred[:3, :3]) <= c.max_jump_deg)
+                and rotation_angle_deg(T[:3, :3], T_pred[:3, :3]) <= c.max_jump_deg)
 
     def _detections(self, last: _State | None) -> list[tuple[Locator, NDArray[np.float64] | None]]:
         """The searches of a detection, in turn: from the last pose, then the boxes."""
@@ -409,11 +416,6 @@ def _tracked(result: LocateResult, mode: str, frame: int, t: float, visible: flo
 
 def _pose_vector(T: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
-
-
-def _angle_deg(Ra: NDArray[np.float64], Rb: NDArray[np.float64]) -> float:
-    c = (float(np.trace(Ra.T @ Rb)) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
 
 
 def _outline_points(locator: Locator, blur_mm: float) -> NDArray[np.float64]:
