@@ -17,17 +17,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from photomodel.camera import save_stereo
+from photomodel.cell import CellConfig, make_cell
 from photomodel.cli import main
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.model import build_photo_model, save_model
-from photomodel.robot import (
-    CellConfig,
-    forward_kinematics,
-    inverse_kinematics,
-    load_hand_eye,
-    make_cell,
-    save_hand_eye,
-)
+from photomodel.robot import forward_kinematics, inverse_kinematics, load_hand_eye, save_hand_eye
 from photomodel.sim import (
     MODEL_DISTANCE_MM,
     make_garment,

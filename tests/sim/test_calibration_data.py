@@ -186,8 +186,7 @@ def test_the_plane_view_gives_the_station_distance(dataset: Path,
 
 def test_hand_eye_pairs_are_reachable_and_rotate_about_several_axes(
         dataset: Path, truth: dict[str, Any]) -> None:
-    from photomodel.robot import load_arm
-    from photomodel.robot._kinematics import forward_kinematics
+    from photomodel.robot import forward_kinematics, load_arm
 
     pairs = json.loads((dataset / "calibration" / "handeye" / "pairs.json").read_text())
     assert pairs["chessboard"] == {"inner_corners": [9, 6], "square_mm": 25.0}
@@ -214,8 +213,7 @@ def test_hand_eye_pairs_are_reachable_and_rotate_about_several_axes(
 def test_photomodel_handeye_recovers_the_mount(dataset: Path, truth: dict[str, Any],
                                                tmp_path: Path,
                                                capsys: pytest.CaptureFixture[str]) -> None:
-    from photomodel.robot import load_hand_eye
-    from photomodel.robot._handeye import hand_eye_error
+    from photomodel.robot import hand_eye_error, load_hand_eye
 
     out = tmp_path / "he.yaml"
     code = main(["handeye", "--pairs", str(dataset / "calibration" / "handeye" / "pairs.json"),

@@ -62,15 +62,10 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError("--conditions", str(exc)) from None
 
+    from photomodel.cell import CellConfig, run_cell, write_json_atomic
     from photomodel.cli._progress import count_progress
     from photomodel.experiments import run_metadata
-    from photomodel.robot import (
-        CellConfig,
-        animate_plan,
-        check_animation_path,
-        run_cell,
-        write_json_atomic,
-    )
+    from photomodel.robot import animate_plan, check_animation_path
 
     animate = check_animation_path(args.animate) if args.animate else None
     layout, settings = layout_and_settings(args)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from photomodel.robot._arm_data import available_link_sets
+from photomodel.robot import available_link_sets
 
 HAND_EYE_METHODS = ("andreff", "daniilidis", "horaud", "park", "tsai")
 """``cv2.calibrateHandEye``'s methods (``photomodel.robot.HAND_EYE_METHODS``'s names; a test

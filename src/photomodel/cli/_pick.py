@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 from photomodel.cli._options import check_float
 from photomodel.errors import InputError
-from photomodel.robot._arm_data import available_link_sets
+from photomodel.robot import available_link_sets
 
 if TYPE_CHECKING:
     from photomodel.robot import CellLayout, PickSettings
@@ -101,18 +101,16 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from photomodel.camera import load_stereo
+    from photomodel.cell import grasp_point_from_photo_px, pick, write_json_atomic
     from photomodel.image import read_color_image
     from photomodel.model import load_model
     from photomodel.robot import (
         animate_plan,
         check_animation_path,
-        grasp_point_from_photo_px,
         hand_pose_from_xyz_rpy,
         joints_for_hand_pose,
         load_arm,
         load_hand_eye,
-        pick,
-        write_json_atomic,
     )
 
     animate = check_animation_path(args.animate) if args.animate else None

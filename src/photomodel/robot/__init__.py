@@ -1,4 +1,7 @@
-"""Robot side of the cell: the PA10-7C's kinematics, hand-eye, pick-and-place plans.
+"""Robot side of the cell: the PA10-7C's kinematics, hand-eye, pick-and-place plans, animation.
+
+Imports neither ``photomodel.sim`` nor ``photomodel.locate``: the simulated cell and ``pick``
+(locate, then plan) live in :mod:`photomodel.cell`, above both.
 
 Frames (docs/contracts.md): ``base`` (the arm's, z up), ``hand`` (tool flange), ``tcp`` (gripper),
 ``cam1``, ``model``; ``T_a_b`` maps b to a; mm and radians inside, ``_deg`` at the edge.
@@ -11,19 +14,8 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_animate": ["ANIMATION_SUFFIXES", "animate_plan", "check_animation_path"],
-        "_arm": ["ARM_FILES", "ArmModel", "available_link_sets", "load_arm"],
-        "_cell": [
-            "CellConfig",
-            "CellReport",
-            "CellSetup",
-            "CycleOutcome",
-            "default_hand_eye",
-            "make_cell",
-            "photo_configuration",
-            "run_cell",
-            "run_cycle",
-            "simulated_hand_eye",
-        ],
+        "_arm": ["ArmModel", "load_arm"],
+        "_arm_data": ["ARM_FILES", "available_link_sets"],
         "_handeye": [
             "HAND_EYE_METHODS",
             "Chessboard",
@@ -46,14 +38,6 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "joint_frames",
             "pose_error",
         ],
-        "_pick": [
-            "PickResult",
-            "grasp_point_from_photo_px",
-            "hand_pose_from_xyz_rpy",
-            "joints_for_hand_pose",
-            "pick",
-            "write_json_atomic",
-        ],
         "_plan": [
             "CellLayout",
             "Gripper",
@@ -64,6 +48,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "grasp_pose",
             "plan_pick",
         ],
+        "_poses": ["PHOTO_SEED_DEG", "hand_pose_from_xyz_rpy", "joints_for_hand_pose"],
     },
 )
 
@@ -71,20 +56,16 @@ __all__ = [
     "ANIMATION_SUFFIXES",
     "ARM_FILES",
     "HAND_EYE_METHODS",
+    "PHOTO_SEED_DEG",
     "ArmModel",
-    "CellConfig",
     "CellLayout",
-    "CellReport",
-    "CellSetup",
     "Chessboard",
-    "CycleOutcome",
     "Gripper",
     "HandEyePairs",
     "HandEyeResult",
     "IKResult",
     "IKSettings",
     "PickPlan",
-    "PickResult",
     "PickSettings",
     "UnreachableError",
     "Waypoint",
@@ -94,9 +75,7 @@ __all__ = [
     "calibrate_hand_eye",
     "check_animation_path",
     "chessboard_pose",
-    "default_hand_eye",
     "forward_kinematics",
-    "grasp_point_from_photo_px",
     "grasp_pose",
     "hand_eye_error",
     "hand_pose_from_xyz_rpy",
@@ -107,14 +86,7 @@ __all__ = [
     "load_arm",
     "load_hand_eye",
     "load_hand_eye_pairs",
-    "make_cell",
-    "photo_configuration",
-    "pick",
     "plan_pick",
     "pose_error",
-    "run_cell",
-    "run_cycle",
     "save_hand_eye",
-    "simulated_hand_eye",
-    "write_json_atomic",
 ]

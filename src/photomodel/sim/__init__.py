@@ -1,10 +1,12 @@
 """Simulator: the paper's cell as a digital twin, writing real-format data with ground truth.
 
 Garments (the catalogue of the paper's 12, a simulated catalogue of up to 100,000 random
-articles with look-alike pairs, or a user's own), the model station and the hand stereo rig,
-named nuisances (:data:`CONDITIONS`), an exact renderer for flat items and a mesh renderer for
-wrinkled cloth, :func:`write_dataset` (what ``photomodel simulate`` runs) and stereo sequences
-with per-frame truth for trackers (:func:`write_sequences`, ``simulate --sequences``).
+articles with look-alike pairs, or a user's own), the model station, the hand stereo rig and
+its place in the cell (mount on the PA10, table, photographing pose: :func:`default_hand_eye`,
+:func:`table_in_base`, :func:`photo_configuration`), named nuisances (:data:`CONDITIONS`), an
+exact renderer for flat items and a mesh renderer for wrinkled cloth, :func:`write_dataset`
+(what ``photomodel simulate`` runs) and stereo sequences with per-frame truth for trackers
+(:func:`write_sequences`, ``simulate --sequences``).
 
 Frames follow docs/contracts.md: a texture (and garment) frame has x along the texture's
 columns, y along its rows and z into the plane; ``T_a_b`` maps frame b to frame a; lengths in
@@ -34,6 +36,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "known_garments",
             "load_garment",
         ],
+        "_cell_geometry": ["default_hand_eye", "photo_configuration", "table_in_base"],
         "_presets": ["CONDITIONS"],
         "_random_catalogue": [
             "MAX_CATALOGUE",
@@ -164,6 +167,7 @@ __all__ = [
     "catalogue_spec",
     "chessboard_texture",
     "contact_sheet",
+    "default_hand_eye",
     "dot_fabric",
     "expand_garments",
     "expose",
@@ -185,6 +189,7 @@ __all__ = [
     "make_wrinkles",
     "model_station_camera",
     "parse_conditions",
+    "photo_configuration",
     "photo_fabric",
     "photo_print_image",
     "pixel_rays",
@@ -203,6 +208,7 @@ __all__ = [
     "simulate_sequence",
     "station_model",
     "stripe_fabric",
+    "table_in_base",
     "table_plane",
     "uniform_plane",
     "white_balance_gains",

@@ -300,10 +300,14 @@ def _hand_eye_views(rig: StereoRig, board: BoardSpec, n_views: int, seed: int
     q_photo : ndarray (7,)
         The joints (rad) at which the scenes are photographed.
     """
-    from photomodel.robot import load_arm
-    from photomodel.robot._cell import _T_base_table, default_hand_eye, photo_configuration
-    from photomodel.robot._kinematics import IKSettings, forward_kinematics, inverse_kinematics
-    from photomodel.robot._plan import CellLayout
+    from photomodel.robot import (
+        CellLayout,
+        IKSettings,
+        forward_kinematics,
+        inverse_kinematics,
+        load_arm,
+    )
+    from photomodel.sim._cell_geometry import default_hand_eye, photo_configuration, table_in_base
     from photomodel.sim._dataset import scene_rng
     from photomodel.sim._rigs import hand_table_pose
 
@@ -311,7 +315,7 @@ def _hand_eye_views(rig: StereoRig, board: BoardSpec, n_views: int, seed: int
     layout = CellLayout()
     X = default_hand_eye(rig)
     q_photo = photo_configuration(arm, layout, rig, X)
-    T_base_table = _T_base_table(layout)
+    T_base_table = table_in_base(layout)
     yaw = np.radians(4.0)
     T_table_board = make_transform(Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix(),
                                    -Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix()

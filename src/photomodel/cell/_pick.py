@@ -11,50 +11,26 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.errors import InputError, PhotomodelError
-from photomodel.geometry import make_transform
 from photomodel.locate import LocateResult, Method, locate
 from photomodel.model import PhotoModel
-from photomodel.robot._arm import ArmModel
-from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
-from photomodel.robot._plan import (
+from photomodel.robot import (
+    ArmModel,
     CellLayout,
     PickPlan,
     PickSettings,
-    UnreachableError,
+    forward_kinematics,
     plan_pick,
 )
 
 __all__ = [
     "PickResult",
     "grasp_point_from_photo_px",
-    "hand_pose_from_xyz_rpy",
-    "joints_for_hand_pose",
     "pick",
     "write_json_atomic",
 ]
-
-PHOTO_SEED_DEG = (0.0, 25.0, 0.0, 100.0, 0.0, 55.0, 0.0)
-"""Start of the IK for a photographing pose: elbow up, hand pointing down."""
-
-
-def hand_pose_from_xyz_rpy(xyz_mm: ArrayLike, rpy_deg: ArrayLike) -> NDArray[np.float64]:
-    """``T_base_hand`` (4, 4) from a position (mm) and roll, pitch, yaw (deg, extrinsic x-y-z)."""
-    R = Rotation.from_euler("xyz", np.asarray(rpy_deg, dtype=np.float64), degrees=True)
-    return make_transform(R.as_matrix(), np.asarray(xyz_mm, dtype=np.float64))
-
-
-def joints_for_hand_pose(arm: ArmModel, T_base_hand: ArrayLike,
-                         source: str = "--hand-pose-mm") -> NDArray[np.float64]:
-    """Joints (n,) rad that reach ``T_base_hand`` (4, 4); :class:`UnreachableError` if none."""
-    result = inverse_kinematics(arm, T_base_hand, np.radians(PHOTO_SEED_DEG), rng=0)
-    if not result.success:
-        raise UnreachableError(f"{source}: the hand pose is out of reach of the {arm.name}: "
-                               f"{result.reason}")
-    return result.q
 
 
 def grasp_point_from_photo_px(model: PhotoModel, uv: ArrayLike) -> tuple[float, float]:

@@ -5,14 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from photomodel.robot import (
-    CellConfig,
-    forward_kinematics,
-    hand_eye_error,
-    make_cell,
-    run_cycle,
-)
-from photomodel.sim import WORK_DISTANCE_MM, hand_table_pose
+from photomodel.cell import CellConfig, make_cell, run_cycle
+from photomodel.robot import forward_kinematics, hand_eye_error
+from photomodel.sim import WORK_DISTANCE_MM, hand_table_pose, table_in_base
 
 
 @pytest.fixture(scope="module")
@@ -26,6 +21,7 @@ def test_photographing_pose_sees_the_table(config: CellConfig) -> None:
     T_base_table = T_base_cam1 @ hand_table_pose(setup.rig)
     np.testing.assert_allclose(T_base_table[:3, 3], config.layout.table_centre_mm, atol=1e-2)
     np.testing.assert_allclose(T_base_table[:3, 2], [0.0, 0.0, -1.0], atol=1e-6)
+    np.testing.assert_allclose(T_base_table, table_in_base(config.layout), atol=1e-2)
     assert setup.arm.within_limits(setup.q_photo)
     # the rig's baseline middle hangs the working distance above the table
     rig_mid = T_base_cam1 @ np.append(-0.5 * setup.rig.R.T @ setup.rig.T, 1.0)

@@ -4,11 +4,12 @@ Set-up (frames as docs/contracts.md; lengths in mm):
 
 - The arm's base stands on the floor of the cell; the work table's top (``table``) lies at
   :attr:`CellLayout.table_centre_mm`, the box at :attr:`CellLayout.box_centre_mm`.
-- The hand rig (the simulator's :func:`~photomodel.sim.hand_stereo_rig`) is mounted on the hand
-  by :func:`default_hand_eye`: the middle of its baseline 110 mm off the flange axis along the
-  hand's -y and 40 mm along its z, the rig's bisector along the hand's z.
-- The photographing configuration ``q_photo`` (:func:`photo_configuration`) puts the rig's
-  bisector perpendicular to the table, 685 mm above its centre, so the cameras see the table as
+- The simulator's fixed geometry (:mod:`photomodel.sim`): the hand rig
+  (:func:`~photomodel.sim.hand_stereo_rig`) on the hand by its true mount
+  :func:`~photomodel.sim.default_hand_eye` (the middle of its baseline 110 mm off the flange
+  axis along the hand's -y and 40 mm along its z); the photographing configuration ``q_photo``
+  (:func:`~photomodel.sim.photo_configuration`) puts the rig's bisector perpendicular to the
+  table, 685 mm above its centre, so the cameras see the table as
   :func:`~photomodel.sim.hand_table_pose` renders it.
 - A hand-eye calibration is simulated first (:func:`simulated_hand_eye`): 12 hand poses around
   ``q_photo``, a fixed target observed with noise, ``cv2.calibrateHandEye``; the cycles plan
@@ -37,56 +38,30 @@ from scipy.spatial.transform import Rotation
 from photomodel.camera import StereoRig
 from photomodel.geometry import in_plane_angle_rad, invert_transform, make_transform
 from photomodel.model import PhotoModel
-from photomodel.robot._arm import ArmModel, load_arm
-from photomodel.robot._handeye import calibrate_hand_eye, hand_eye_error
-from photomodel.robot._kinematics import forward_kinematics, inverse_kinematics
-from photomodel.robot._pick import PHOTO_SEED_DEG
-from photomodel.robot._plan import CellLayout, PickPlan, PickSettings, UnreachableError, plan_pick
+from photomodel.robot import (
+    ArmModel,
+    CellLayout,
+    PickPlan,
+    PickSettings,
+    UnreachableError,
+    calibrate_hand_eye,
+    forward_kinematics,
+    hand_eye_error,
+    inverse_kinematics,
+    load_arm,
+    plan_pick,
+)
 
 __all__ = [
     "CellConfig",
     "CellReport",
     "CellSetup",
     "CycleOutcome",
-    "default_hand_eye",
     "make_cell",
-    "photo_configuration",
     "run_cell",
     "run_cycle",
     "simulated_hand_eye",
 ]
-
-
-
-def default_hand_eye(rig: StereoRig) -> NDArray[np.float64]:
-    """The simulated mount ``T_hand_cam1`` (4, 4), mm, of the hand rig (module docstring)."""
-    from photomodel.sim import WORK_DISTANCE_MM, hand_table_pose
-
-    T_cam1_rig = hand_table_pose(rig) @ make_transform(np.eye(3), [0, 0, -WORK_DISTANCE_MM])
-    T_hand_rig = make_transform(np.eye(3), [0.0, -110.0, 40.0])
-    return T_hand_rig @ invert_transform(T_cam1_rig)
-
-
-def _T_base_table(layout: CellLayout) -> NDArray[np.float64]:
-    """The simulator's table frame in the base frame: z down into the table, x along base x."""
-    return make_transform(np.diag([1.0, -1.0, -1.0]), layout.table_centre_mm)
-
-
-def photo_configuration(arm: ArmModel, layout: CellLayout, rig: StereoRig,
-                        T_hand_cam1: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Joints ``q_photo`` (n,), radians, at which the rig sees the table as the simulator does.
-
-    Raises :class:`UnreachableError` when the arm cannot reach that view.
-    """
-    from photomodel.sim import hand_table_pose
-
-    T_base_cam1 = _T_base_table(layout) @ invert_transform(hand_table_pose(rig))
-    T_base_hand = T_base_cam1 @ invert_transform(T_hand_cam1)
-    result = inverse_kinematics(arm, T_base_hand, np.radians(PHOTO_SEED_DEG), rng=0)
-    if not result.success:
-        raise UnreachableError(f"cell: the photographing pose above the table is out of reach: "
-                               f"{result.reason}")
-    return result.q
 
 
 def simulated_hand_eye(arm: ArmModel, q_photo: NDArray[np.float64],
@@ -204,7 +179,13 @@ class CellSetup:
 
 def make_cell(config: CellConfig) -> CellSetup:
     """Arm, rig, mount, photographing pose and (simulated) hand-eye calibration."""
-    from photomodel.sim import hand_stereo_rig, parse_conditions, scene_rng
+    from photomodel.sim import (
+        default_hand_eye,
+        hand_stereo_rig,
+        parse_conditions,
+        photo_configuration,
+        scene_rng,
+    )
 
     arm = load_arm("pa10-7c", config.link_set)
     rig = hand_stereo_rig(lens=parse_conditions(config.condition).lens)

@@ -1,0 +1,45 @@
+"""The cell end to end: the simulated cell's orders and ``pick`` from a stereo pair and joints.
+
+:func:`run_cell` (what ``photomodel cell`` runs) photographs each order's garment at the model
+station, photographs the table from the PA10's hand, locates the garment and plans its pick,
+against the simulator's truth; :func:`pick` (what ``photomodel pick`` runs) locates a model in
+a real stereo pair taken at known joints and plans its pick and place.
+
+Sits above ``locate``, ``sim`` and ``robot`` and uses their public names; none of them imports
+it. Frames follow docs/contracts.md: ``T_a_b`` maps b to a, mm and radians inside;
+``T_base_model = T_base_hand(q) @ T_hand_cam1 @ T_cam1_model``.
+"""
+
+import lazy_loader
+
+__getattr__, __dir__, _ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "_cell": [
+            "CellConfig",
+            "CellReport",
+            "CellSetup",
+            "CycleOutcome",
+            "make_cell",
+            "run_cell",
+            "run_cycle",
+            "simulated_hand_eye",
+        ],
+        "_pick": ["PickResult", "grasp_point_from_photo_px", "pick", "write_json_atomic"],
+    },
+)
+
+__all__ = [
+    "CellConfig",
+    "CellReport",
+    "CellSetup",
+    "CycleOutcome",
+    "PickResult",
+    "grasp_point_from_photo_px",
+    "make_cell",
+    "pick",
+    "run_cell",
+    "run_cycle",
+    "simulated_hand_eye",
+    "write_json_atomic",
+]
