@@ -9,8 +9,9 @@ tracking over.
 
 Each processed frame is answered by one text message: the ``track --json`` object
 (:meth:`~photomodel.track.TrackResult.to_json_dict`) plus ``pose_stamped`` (null when lost),
-``received`` (frames received so far) and ``dropped`` (frames dropped so far). A bad frame is
-answered by ``{"error": ..., "received": ...}`` and the stream goes on. The newest frame wins:
+``received`` (frames received so far) and ``dropped`` (frames dropped so far). A bad frame,
+and a text message other than ``{"reset": ...}``, is answered by ``{"error": ...,
+"received": ..., "dropped": ...}`` and the stream goes on. The newest frame wins:
 while a frame is being tracked, only the latest one that arrives is kept, the ones it
 replaces are counted as dropped (and in ``/metrics``), so a slow client never makes the
 server queue frames.
@@ -142,7 +143,7 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             await ws.close(code=POLICY_VIOLATION)
             return
         state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
-                                 "reset": False}
+                                 "reset": False, "text_error": None}
         arrived = anyio.Event()
 
         def track(message: bytes) -> dict[str, Any]:
@@ -167,11 +168,24 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                             metrics.frames.labels("dropped").inc()
                         state["frame"] = message["bytes"]
                     elif message.get("text") is not None:
-                        state["reset"] = _is_reset(message["text"])
+                        try:
+                            if _is_reset(message["text"]):
+                                state["reset"] = True    # a later text does not cancel it
+                        except InputError as exc:
+                            state["text_error"] = str(exc)    # the latest one is answered
                     arrived.set()
             finally:
                 state["open"] = False
                 arrived.set()
+
+        async def send(out: dict[str, Any]) -> bool:
+            """Send one answer with the counts; False when the client has gone."""
+            out.update(received=state["received"], dropped=state["dropped"])
+            try:
+                await ws.send_text(json.dumps(finite(out), allow_nan=False))
+            except (WebSocketDisconnect, RuntimeError):
+                return False
+            return True
 
         async def answer() -> None:
             nonlocal arrived
@@ -180,6 +194,10 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                 arrived = anyio.Event()
                 if not state["open"]:
                     return
+                if state["text_error"] is not None:
+                    error, state["text_error"] = state["text_error"], None
+                    if not await send({"error": error}):
+                        return
                 if state["reset"]:
                     state["reset"] = False
                     tracker.reset()
@@ -194,10 +212,7 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                 except PhotomodelError as exc:
                     metrics.frames.labels("bad").inc()
                     out = {"error": str(exc)}
-                out.update(received=state["received"], dropped=state["dropped"])
-                try:
-                    await ws.send_text(json.dumps(finite(out), allow_nan=False))
-                except (WebSocketDisconnect, RuntimeError):
+                if not await send(out):
                     return
 
         async with anyio.create_task_group() as tasks:
@@ -209,8 +224,18 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
 
 
 def _is_reset(text: str) -> bool:
+    """Whether a text message asks to start over (``{"reset": true}``).
+
+    Raises
+    ------
+    InputError
+        When the message is not a JSON object with the key ``reset``.
+    """
     try:
         doc = json.loads(text)
     except ValueError:
-        return False
-    return isinstance(doc, dict) and bool(doc.get("reset"))
+        doc = None
+    if not isinstance(doc, dict) or "reset" not in doc:
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        raise InputError("text message", f'expected {{"reset": true}}, got {shown!r}')
+    return bool(doc["reset"])
