@@ -543,6 +543,11 @@ def run_targets(result: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _relative(word: str) -> str:
+    """A command's word with the repository's path left out."""
+    return word.replace(str(REPO) + os.sep, "")
+
+
 def threads() -> dict[str, Any]:
     import cv2
     import numba
@@ -617,12 +622,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                          "rss_growth_below": TARGET_RSS_GROWTH,
                          "drain_s_max": TARGET_DRAIN_S,
                          "other_cores_limit": OTHER_CORES_LIMIT}},
-        "data": {"simulate": data.simulate_argv, "sequence": str(data.sequence.relative_to(
-                     REPO) if data.sequence.is_relative_to(REPO) else data.sequence),
+        "data": {"simulate": [_relative(w) for w in data.simulate_argv],
+                 "sequence": _relative(str(data.sequence)),
                  "frames": len(f.names), "shape": list(f.shape), "model": data.model_name,
                  "message_bytes": {e: len(f.message(0, 0.0, e)) for e in encodings},
                  "rendered_s": data.rendered_s},
-        "service": {"command": service.cmd[1:], "startup_s": startup_s,
+        "service": {"command": [_relative(w) for w in service.cmd[1:]], "startup_s": startup_s,
                     "rss_ready_mib": rss_ready["rss"], "rss_final_mib": rss_final["rss"],
                     "exit_code": code},
         "tracker": source,
