@@ -2,8 +2,10 @@
 
 :func:`run_cell` (what ``photomodel cell`` runs) photographs each order's garment at the model
 station, photographs the table from the PA10's hand, locates the garment and plans its pick,
-against the simulator's truth; :func:`pick` (what ``photomodel pick`` runs) locates a model in
-a real stereo pair taken at known joints and plans its pick and place.
+against the simulator's truth; :func:`run_servo_cell` (``cell --servo``) picks garments from a
+moving conveyor, open loop and servoed by the tracker at camera rate; :func:`pick` (what
+``photomodel pick`` runs) locates a model in a real stereo pair taken at known joints and plans
+its pick and place.
 
 Sits above ``locate``, ``sim`` and ``robot`` and uses their public names; none of them imports
 it. Frames follow docs/contracts.md: ``T_a_b`` maps b to a, mm and radians inside;
@@ -23,23 +25,43 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "make_cell",
             "run_cell",
             "run_cycle",
+    "run_servo_cell",
+    "run_servo_order",
             "simulated_hand_eye",
         ],
         "_pick": ["PickResult", "grasp_point_from_photo_px", "pick", "write_json_atomic"],
+        "_servo": [
+            "AIM_MODES",
+            "ServoOutcome",
+            "ServoReport",
+            "ServoSettings",
+            "ServoTick",
+            "run_servo_cell",
+            "run_servo_order",
+        ],
+        "_servo_animate": ["animate_servo"],
     },
 )
 
 __all__ = [
+    "AIM_MODES",
     "CellConfig",
     "CellReport",
     "CellSetup",
     "CycleOutcome",
     "PickResult",
+    "ServoOutcome",
+    "ServoReport",
+    "ServoSettings",
+    "ServoTick",
+    "animate_servo",
     "grasp_point_from_photo_px",
     "make_cell",
     "pick",
     "run_cell",
     "run_cycle",
+    "run_servo_cell",
+    "run_servo_order",
     "simulated_hand_eye",
     "write_json_atomic",
 ]

@@ -5,12 +5,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
+from typing import Any
 
 from photomodel.cli._pick import add_layout_options, layout_and_settings
 from photomodel.errors import InputError
 
 MAX_ORDERS = 100_000
 MAX_TOLERANCE_MM = 1000.0
+MAX_BELT_MM_S = 500.0
+MIN_FPS, MAX_FPS = 5.0, 240.0
 _OPTIONS = {"orders": "--orders", "garments": "--garments", "hand_eye": "--hand-eye",
             "tolerance_mm": "--tolerance-mm", "condition": "--conditions",
             "seed": "--seed"}
@@ -38,8 +42,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_layout_options(p)
     p.add_argument("--out", default=None, help="write every cycle and the summary as JSON")
     p.add_argument("--animate", default=None,
-                   help="render the first planned cycle's motion to a .gif (or .mp4)")
+                   help="render the first planned cycle's motion to a .gif (or .mp4); with "
+                        "--servo the first order's servoed pick and what camera 1 saw")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    servo = p.add_argument_group("servoed picks from a conveyor")
+    servo.add_argument("--servo", action="store_true",
+                       help="pick each garment from a moving conveyor: the hand cameras track "
+                            "it at camera rate while the arm approaches; reported against "
+                            "open loop and belt-speed prediction on the same orders")
+    servo.add_argument("--conveyor-mm-s", type=float, default=200.0,
+                       help=f"belt speed with --servo, 0 to {MAX_BELT_MM_S:g} mm/s (default 200)")
+    servo.add_argument("--fps", type=float, default=30.0,
+                       help=f"camera and control rate with --servo, {MIN_FPS:g} to "
+                            f"{MAX_FPS:g} frames per second (default 30)")
     p.set_defaults(run=run)
 
 
@@ -76,6 +91,8 @@ def run(args: argparse.Namespace) -> int:
                             pick=settings)
     except ValueError as exc:
         raise as_option_error(exc, _OPTIONS, "cell") from None
+    if args.servo:
+        return _run_servo(args, config, animate)
     with count_progress("cell", enabled=sys.stderr.isatty()) as progress:
         report = run_cell(config, progress)
     if animate is not None and report.first_plan is not None:
@@ -96,6 +113,40 @@ def run(args: argparse.Namespace) -> int:
               f"{s['plans_reachable_within_limits']}/{s['found']}, grasp within "
               f"{s['tolerance_mm']:g} mm {s['picked_within_tolerance']}/{s['orders']}; grasp "
               f"error (found) mean {_fmt(e['mean'])} sd {_fmt(e['sd'])} max {_fmt(e['max'])} mm")
+    return 0
+
+
+def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> int:
+    """``cell --servo``: orders on a conveyor, open loop, belt-predicted and servoed."""
+    from photomodel.cell import ServoSettings, animate_servo, run_servo_cell, write_json_atomic
+    from photomodel.cli._options import check_float
+    from photomodel.cli._progress import count_progress
+    from photomodel.experiments import run_metadata
+
+    check_float("--conveyor-mm-s", args.conveyor_mm_s, 0.0, MAX_BELT_MM_S, unit="mm/s")
+    check_float("--fps", args.fps, MIN_FPS, MAX_FPS, unit="frames per second")
+    servo = ServoSettings(fps=args.fps, conveyor_mm_s=args.conveyor_mm_s)
+    with count_progress("cell --servo", enabled=sys.stderr.isatty()) as progress:
+        report = run_servo_cell(config, servo, progress, keep=0 if animate else None)
+    if animate is not None and report.kept is not None and report.kept.ticks:
+        r = report.kept.record
+        animate_servo(report.setup.arm, report.setup.rig, report.kept, animate,
+                      layout=config.layout, gripper=config.pick.gripper,
+                      title=f"servoed pick: order {r['order']}, {r['garment']} on a belt at "
+                            f"{servo.conveyor_mm_s:g} mm/s, camera at {servo.fps:g} fps")
+    if args.out:
+        write_json_atomic(args.out, {**run_metadata(), **report.to_json_dict()})
+    s = report.summary
+    if args.json:
+        print(json.dumps(s))
+        return 0
+    print(f"{s['orders']} orders on a belt at {servo.conveyor_mm_s:g} mm/s, found {s['found']}; "
+          f"grasp error (mm) when the gripper closes:")
+    for mode, a in s["aims"].items():
+        e = a["grasp_error_mm"]
+        print(f"  {mode:9s} closed {a['closed']}/{a['orders']}, within {s['tolerance_mm']:g} mm "
+              f"{a['within_tolerance']}, mean {_fmt(e['mean'])} sd {_fmt(e['sd'])} "
+              f"max {_fmt(e['max'])}")
     return 0
 
 

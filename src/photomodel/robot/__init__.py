@@ -13,7 +13,13 @@ import lazy_loader
 __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_animate": ["ANIMATION_SUFFIXES", "animate_plan", "check_animation_path"],
+        "_animate": [
+            "ANIMATION_SUFFIXES",
+            "animate_plan",
+            "check_animation_path",
+            "draw_workspace",
+            "save_animation",
+        ],
         "_arm": ["ArmModel", "load_arm"],
         "_arm_data": ["ARM_FILES", "available_link_sets"],
         "_handeye": [
@@ -75,6 +81,7 @@ __all__ = [
     "calibrate_hand_eye",
     "check_animation_path",
     "chessboard_pose",
+    "draw_workspace",
     "forward_kinematics",
     "grasp_pose",
     "hand_eye_error",
@@ -88,5 +95,6 @@ __all__ = [
     "load_hand_eye_pairs",
     "plan_pick",
     "pose_error",
+    "save_animation",
     "save_hand_eye",
 ]

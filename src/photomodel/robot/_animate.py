@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +22,13 @@ from photomodel.robot._arm import ArmModel
 from photomodel.robot._kinematics import joint_frames
 from photomodel.robot._plan import CellLayout, Gripper, PickPlan
 
-__all__ = ["ANIMATION_SUFFIXES", "animate_plan", "check_animation_path"]
+__all__ = [
+    "ANIMATION_SUFFIXES",
+    "animate_plan",
+    "check_animation_path",
+    "draw_workspace",
+    "save_animation",
+]
 
 ANIMATION_SUFFIXES = (".gif", ".mp4")
 
@@ -92,7 +99,7 @@ def animate_plan(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
+    from matplotlib.animation import FuncAnimation
 
     p = check_animation_path(out)
     layout = layout or CellLayout()
@@ -111,31 +118,12 @@ def animate_plan(
 
     fig = plt.figure(figsize=(5.6, 4.6))
     ax = fig.add_subplot(projection="3d")
-    tx, ty, tz = layout.table_centre_mm
-    hx, hy = layout.table_size_mm[0] / 2, layout.table_size_mm[1] / 2
-    ax.plot([tx - hx, tx + hx, tx + hx, tx - hx, tx - hx],
-            [ty - hy, ty - hy, ty + hy, ty + hy, ty - hy], [tz] * 5, color="0.5", lw=1)
-    b = layout.box_size_mm / 2
-    rim = np.array([[-b, -b, 0], [b, -b, 0], [b, b, 0], [-b, b, 0], [-b, -b, 0]], float)
-    T_box = layout.T_base_box
-    for h in (0.0, layout.box_depth_mm):
-        pts = transform_points(T_box, rim + [0.0, 0.0, h])
-        ax.plot(pts[:, 0], pts[:, 1], pts[:, 2], color="saddlebrown", lw=1)
-    for corner in rim[:4]:
-        pts = transform_points(T_box, np.array([corner, corner + [0.0, 0.0, layout.box_depth_mm]]))
-        ax.plot(pts[:, 0], pts[:, 1], pts[:, 2], color="saddlebrown", lw=1)
+    draw_workspace(ax, layout)
     (arm_line,) = ax.plot([], [], [], "-o", color="tab:blue", lw=3, ms=3)
     (tool_line,) = ax.plot([], [], [], "-", color="tab:red", lw=2)
     (cloth,) = ax.plot([], [], [], "-", color="tab:green", lw=1.5)
     tcp_track = T_tcp[:, :3, 3]
     ax.plot(tcp_track[:, 0], tcp_track[:, 1], tcp_track[:, 2], ":", color="0.6", lw=0.8)
-    ax.set_xlim(-300, 1000)
-    ax.set_ylim(-800, 500)
-    ax.set_zlim(0, 1300)
-    ax.set_xlabel("x mm")
-    ax.set_ylabel("y mm")
-    ax.set_zlabel("z mm")
-    ax.view_init(elev=24, azim=-60)
     text = ax.text2D(0.02, 0.95, "", transform=ax.transAxes, fontsize=8)
     fig.suptitle(title or f"{arm.name}: pick and place", fontsize=9)
 
@@ -159,12 +147,47 @@ def animate_plan(
         return arm_line, tool_line, cloth, text
 
     anim = FuncAnimation(fig, draw, frames=len(q_all), blit=False)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(f".{p.stem}.tmp{p.suffix}")
-    writer = PillowWriter(fps=fps) if p.suffix.lower() == ".gif" else FFMpegWriter(fps=fps)
+    return save_animation(anim, fig, p, fps, dpi)
+
+
+def draw_workspace(ax: Any, layout: CellLayout) -> None:
+    """Draw the work table's outline and the box on a matplotlib 3D axes (base frame, mm),
+    and set the axes' limits, labels and view as :func:`animate_plan` does."""
+    tx, ty, tz = layout.table_centre_mm
+    hx, hy = layout.table_size_mm[0] / 2, layout.table_size_mm[1] / 2
+    ax.plot([tx - hx, tx + hx, tx + hx, tx - hx, tx - hx],
+            [ty - hy, ty - hy, ty + hy, ty + hy, ty - hy], [tz] * 5, color="0.5", lw=1)
+    b = layout.box_size_mm / 2
+    rim = np.array([[-b, -b, 0], [b, -b, 0], [b, b, 0], [-b, b, 0], [-b, -b, 0]], float)
+    T_box = layout.T_base_box
+    for h in (0.0, layout.box_depth_mm):
+        pts = transform_points(T_box, rim + [0.0, 0.0, h])
+        ax.plot(pts[:, 0], pts[:, 1], pts[:, 2], color="saddlebrown", lw=1)
+    for corner in rim[:4]:
+        pts = transform_points(T_box, np.array([corner, corner + [0.0, 0.0, layout.box_depth_mm]]))
+        ax.plot(pts[:, 0], pts[:, 1], pts[:, 2], color="saddlebrown", lw=1)
+    ax.set_xlim(-300, 1000)
+    ax.set_ylim(-800, 500)
+    ax.set_zlim(0, 1300)
+    ax.set_xlabel("x mm")
+    ax.set_ylabel("y mm")
+    ax.set_zlabel("z mm")
+    ax.view_init(elev=24, azim=-60)
+
+
+def save_animation(anim: Any, fig: Any, out: Path, fps: int, dpi: int) -> Path:
+    """Write a matplotlib animation to ``out`` (.gif or .mp4) through a temporary file, and
+    close the figure."""
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FFMpegWriter, PillowWriter
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
+    writer = PillowWriter(fps=fps) if out.suffix.lower() == ".gif" else FFMpegWriter(fps=fps)
     try:
         anim.save(str(tmp), writer=writer, dpi=dpi)
+        os.replace(tmp, out)
     finally:
         plt.close(fig)
-    os.replace(tmp, p)
-    return p
+        tmp.unlink(missing_ok=True)
+    return out

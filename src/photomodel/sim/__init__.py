@@ -37,6 +37,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "load_garment",
         ],
         "_cell_geometry": ["default_hand_eye", "photo_configuration", "table_in_base"],
+        "_live": ["ConveyorView"],
         "_presets": ["CONDITIONS"],
         "_random_catalogue": [
             "MAX_CATALOGUE",
@@ -124,6 +125,7 @@ __all__ = [
     "BASELINE_MM",
     "CALIBRATION_BOARD",
     "CATALOGUE",
+    "ConveyorView",
     "CONDITIONS",
     "FABRICS",
     "GARMENT_GROUPS",

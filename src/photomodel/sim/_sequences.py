@@ -686,11 +686,11 @@ class _Exposure:
     end: _State | None = None
 
 
-def _exposure_of(plan: _Plan, settings: SequenceSettings, t_s: float) -> _Exposure:
-    """The exposure centred on ``t_s``. While the hand moves, sub-frames at most
-    :data:`_SUBFRAME_STEP_PX` of image motion apart; while it stands, things slide past
+def _exposure_of(plan: _Plan, exposure_s: float, t_s: float) -> _Exposure:
+    """The exposure (``exposure_s`` long) centred on ``t_s``. While the hand moves, sub-frames
+    at most :data:`_SUBFRAME_STEP_PX` of image motion apart; while it stands, things slide past
     it and their textures are smeared instead (exact for a slide at constant velocity)."""
-    half = settings.exposure_s / 2.0
+    half = exposure_s / 2.0
     if half <= 0:
         return _Exposure((t_s,), 0.0)
     start, end = plan.state(t_s - half), plan.state(t_s + half)
@@ -698,8 +698,7 @@ def _exposure_of(plan: _Plan, settings: SequenceSettings, t_s: float) -> _Exposu
     if np.allclose(start.T_table_cam1, end.T_table_cam1, atol=1e-9):
         return _Exposure((t_s,), motion, start, end)
     n = int(min(max(np.ceil(motion / _SUBFRAME_STEP_PX), 1), _MAX_SUBFRAMES))
-    return _Exposure(tuple(t_s + settings.exposure_s * ((k + 0.5) / n - 0.5)
-                           for k in range(n)), motion)
+    return _Exposure(tuple(t_s + exposure_s * ((k + 0.5) / n - 0.5) for k in range(n)), motion)
 
 
 def _scene(plan: _Plan, exposure: _Exposure, state: _State, smears: _Smears
@@ -770,36 +769,41 @@ def simulate_sequence(settings: SequenceSettings) -> Iterator[SequenceFrame]:
 
 def _frames(settings: SequenceSettings, plan: _Plan) -> Iterator[SequenceFrame]:
     """:func:`simulate_sequence` of a built plan."""
-    rig = plan.rig
-    conditions = Conditions()
     smears = _Smears()
     fps_key = f"{settings.fps:g}"
     for k in range(settings.frames):
-        t_s = k / settings.fps
-        exposure = _exposure_of(plan, settings, t_s)
-        states = [plan.state(t) for t in exposure.times]
-        truth = plan.state(t_s)
         gen = scene_rng(settings.seed, "sequence", settings.garment, settings.kind, fps_key, k)
-        images, fractions = [], []
-        for c, camera in enumerate(rig.cameras):
-            image, seen, covered = _render_camera(plan, c, exposure, states, smears)
-            images.append(expose(image, camera, conditions, gen))
-            share = 0.0
-            if truth.garment is not None and covered > 0:
-                T_cam_item = (_T_cam_table(rig, c, truth)
-                              @ truth.layers[truth.garment].T_plane_item)
-                share = _in_image_share(camera, T_cam_item, plan.samples) * seen / covered
-            fractions.append(float(min(max(share, 0.0), 1.0)))
-        T_table_model = (None if truth.garment is None
-                         else truth.layers[truth.garment].T_plane_item)
-        T_cam1_model = (None if T_table_model is None
-                        else invert_transform(truth.T_table_cam1) @ T_table_model)
-        info = {"T_table_cam1": truth.T_table_cam1.tolist(),
-                "T_table_model": None if T_table_model is None else T_table_model.tolist(),
-                "visible_cam2": fractions[1], "motion_blur_px": exposure.motion_px,
-                "subframes": len(exposure.times)}
-        yield SequenceFrame(k, f"{k:06d}", t_s, images[0], images[1], T_cam1_model,
-                            fractions[0], info)
+        yield _render_frame(plan, k, k / settings.fps, settings.exposure_s, gen, smears)
+
+
+def _render_frame(plan: _Plan, index: int, t_s: float, exposure_s: float,
+                  gen: np.random.Generator, smears: _Smears) -> SequenceFrame:
+    """Frame ``index`` of a plan, exposed for ``exposure_s`` around ``t_s``, with its truth;
+    ``gen`` draws its sensor noise."""
+    rig = plan.rig
+    exposure = _exposure_of(plan, exposure_s, t_s)
+    states = [plan.state(t) for t in exposure.times]
+    truth = plan.state(t_s)
+    images, fractions = [], []
+    for c, camera in enumerate(rig.cameras):
+        image, seen, covered = _render_camera(plan, c, exposure, states, smears)
+        images.append(expose(image, camera, Conditions(), gen))
+        share = 0.0
+        if truth.garment is not None and covered > 0:
+            T_cam_item = (_T_cam_table(rig, c, truth)
+                          @ truth.layers[truth.garment].T_plane_item)
+            share = _in_image_share(camera, T_cam_item, plan.samples) * seen / covered
+        fractions.append(float(min(max(share, 0.0), 1.0)))
+    T_table_model = (None if truth.garment is None
+                     else truth.layers[truth.garment].T_plane_item)
+    T_cam1_model = (None if T_table_model is None
+                    else invert_transform(truth.T_table_cam1) @ T_table_model)
+    info = {"T_table_cam1": truth.T_table_cam1.tolist(),
+            "T_table_model": None if T_table_model is None else T_table_model.tolist(),
+            "visible_cam2": fractions[1], "motion_blur_px": exposure.motion_px,
+            "subframes": len(exposure.times)}
+    return SequenceFrame(index, f"{index:06d}", t_s, images[0], images[1], T_cam1_model,
+                         fractions[0], info)
 
 
 # --- writing -------------------------------------------------------------------------------

@@ -207,8 +207,8 @@ class Tracker:
         return self._near
 
     def __call__(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
-                 t_s: float | None = None, rng: int | np.random.Generator | None = None
-                 ) -> TrackResult:
+                 t_s: float | None = None, rng: int | np.random.Generator | None = None,
+                 *, predicted: NDArray[np.float64] | None = None) -> TrackResult:
         """The pose in the next frame of the sequence.
 
         Parameters
@@ -220,6 +220,11 @@ class Tracker:
             does not advance restarts the tracking (noted in the result).
         rng : int, Generator or None
             Seed of a detection's search.
+        predicted : ndarray (4, 4), optional
+            ``T_cam1_model`` the caller expects in this frame, mm (a moving hand: the last
+            pose carried by the arm's known motion). Used instead of the motion model's
+            prediction: where the refinement starts, what the jump test compares with, and
+            where a detection looks first.
 
         Returns
         -------
@@ -244,14 +249,15 @@ class Tracker:
                 self.motion.reset()
         self._frame += 1
         self._t_last = t
+        T_given = None if predicted is None else _checked_pose(predicted, "predicted")
         result: TrackResult | None = None
         if self._state is not None:
-            result, why = self._track(right_bgr, left_bgr, t, frame, t0)
+            result, why = self._track(right_bgr, left_bgr, t, frame, t0, T_given)
             if result is None:
                 note = why
                 self._state = None
         if result is None:
-            result = self._detect(right_bgr, left_bgr, t, frame, t0, rng)
+            result = self._detect(right_bgr, left_bgr, t, frame, t0, rng, T_given)
         if note is not None:
             result = replace(result, note=note)
         return replace(result, seconds=time.perf_counter() - t0)
@@ -276,11 +282,12 @@ class Tracker:
         return None if w1 is None or w2 is None else (w1, w2)
 
     def _track(self, right: NDArray[np.uint8], left: NDArray[np.uint8], t: float, frame: int,
-               t0: float) -> tuple[TrackResult | None, str]:
+               t0: float, T_given: NDArray[np.float64] | None
+               ) -> tuple[TrackResult | None, str]:
         assert self._state is not None
         c = self.config
         state = self._state
-        T_pred = self.motion.predict(t)
+        T_pred = self.motion.predict(t) if T_given is None else T_given
         assert T_pred is not None
         d = self._level_offset(float(T_pred[2, 3]))
         windows = self._windows(T_pred, state.strain, d, _thinned(self._outline(state)))
@@ -357,10 +364,13 @@ class Tracker:
     # -- detection ------------------------------------------------------------------------
 
     def _detect(self, right: NDArray[np.uint8], left: NDArray[np.uint8], t: float,
-                frame: int, t0: float, rng: int | np.random.Generator | None) -> TrackResult:
+                frame: int, t0: float, rng: int | np.random.Generator | None,
+                T_given: NDArray[np.float64] | None = None) -> TrackResult:
         features = StereoFeatures(self.rig, right, left)
         gen = np.random.default_rng(rng)
         last = self._last_seen
+        if last is not None and T_given is not None:
+            last = _State(T_given, last.strain, last.blur_mm)
         best: LocateResult | None = None
         for locator, start in self._detections(last):
             r = locator.locate_features(features, gen, start=start, t0=t0)
@@ -369,7 +379,7 @@ class Tracker:
             if r.found:
                 break
         assert best is not None
-        T_pred = self.motion.predict(t)
+        T_pred = self.motion.predict(t) if T_given is None else T_given
         if T_pred is None or not self._close(best.T_cam1_model, T_pred):
             self.motion.reset()      # put down elsewhere: its old velocity says nothing
         if not best.found:
@@ -412,6 +422,17 @@ def _tracked(result: LocateResult, mode: str, frame: int, t: float, visible: flo
     fields = {k: getattr(result, k) for k in LocateResult.__dataclass_fields__}
     return TrackResult(**fields, mode=mode, frame=frame, t_s=t,  # type: ignore[arg-type]
                        visible=visible)
+
+
+def _checked_pose(T: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    """``T`` as a finite (4, 4) rigid transform, or :class:`InputError` naming ``name``."""
+    A = np.asarray(T, dtype=np.float64)
+    if A.shape != (4, 4) or not np.isfinite(A).all():
+        raise InputError(name, f"expected a finite (4, 4) pose, got shape {A.shape}")
+    R = A[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+        raise InputError(name, "its rotation part is not a rotation")
+    return A
 
 
 def _pose_vector(T: NDArray[np.float64]) -> NDArray[np.float64]:
