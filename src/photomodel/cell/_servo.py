@@ -117,7 +117,7 @@ class ServoSettings:
     align_deg: float = 2.0
     close_mm: float = 1.0
     settle_s: float = 0.3
-    fit_window_s: float = 0.4
+    fit_window_s: float = 0.8
     gate_mm: float = 10.0
     min_visible: float = 0.6
     timeout_s: float = 8.0
