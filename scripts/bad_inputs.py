@@ -46,7 +46,8 @@ GENERATE = "python scripts/bad_inputs.py --out docs/bad-inputs.md"
 TIMEOUT_S = 300.0
 MAX_LINE_CHARS = 300
 
-GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Options")
+GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Tracking",
+          "Options")
 
 # The valid files every case starts from (written by `setup`); a case replaces one of them.
 VALID = {
@@ -54,7 +55,10 @@ VALID = {
                ("--right", "right.png"), ("--left", "left.png")),
     "build": (("--photo", "photo.bmp"), ("--background", "background.bmp"),
               ("--camera", "camera.yaml"), ("--out", "out/{slug}.npz")),
+    "track": (("--model", "shirt.npz"), ("--stereo", "stereo.yaml"), ("--frames", "frames")),
 }
+TRACK_FRAMES = ("000000", "000001", "000002")
+"""The valid sequence ``frames/``: three frames, each the scene's pair."""
 
 
 # --- cases ---------------------------------------------------------------------------------
@@ -75,13 +79,15 @@ class Case:
     short : str
         The command as the table shows it (``locate …`` for the valid files).
     expected_code : int
-        The exit code the CLI must give (2: an input error; 0: read, perhaps with a warning).
+        The exit code the CLI must give (2: an input error; 0: read, perhaps with a warning;
+        1: ``track`` went on past frames it could not read).
     prepare : callable or None
         Writes the case's bad files into the work directory (given as its argument).
     verify : callable or None
         After the run: a problem (str) with what is left in the work directory, or None.
     summary : callable or None
-        Stable facts of stdout for a case that succeeds (stdout is otherwise not shown).
+        Stable facts of stdout for a case that exits 0 or 1 (stdout is otherwise not
+        shown).
     """
 
     group: str
@@ -179,6 +185,43 @@ def _model_count(stdout: str) -> str:
 
 def _built(stdout: str) -> str:
     return "stdout: the model's summary" if "model '" in stdout else "stdout: " + stdout[:80]
+
+
+def _tracked(stdout: str) -> str:
+    """The frames ``track --json`` printed, with their modes and any note."""
+    frames = [json.loads(line) for line in stdout.splitlines() if line.strip()]
+    shown = ", ".join(f"{f['name']} {f['mode']}" + (f" ({f['note']})" if f["note"] else "")
+                      for f in frames)
+    return f"stdout: {len(frames)} frame(s): {shown}"
+
+
+def _sequence(folder: str, change: Callable[[Path], None]) -> Callable[[Path], None]:
+    """A ``prepare``: ``folder``, a copy of the valid sequence ``frames``, then
+    ``change(folder)``."""
+
+    def prepare(work: Path) -> None:
+        shutil.copytree(work / "frames", work / folder)
+        change(work / folder)
+
+    return prepare
+
+
+def _timing(times: dict[str, float]) -> Callable[[Path], None]:
+    """A ``change``: the sequence's ``meta.json`` at 30 fps with these frame times."""
+
+    def change(folder: Path) -> None:
+        doc = {"fps": 30.0, "frames": {name: {"t_s": t} for name, t in times.items()}}
+        (folder / "meta.json").write_text(json.dumps(doc))
+
+    return change
+
+
+def _corrupt_png(path: Path) -> None:
+    """``path`` with 1 KiB of garbage in the middle (inside its image data), its length
+    kept."""
+    data = path.read_bytes()
+    middle = len(data) // 2
+    path.write_bytes(data[:middle] + bytes(range(256)) * 4 + data[middle + 1024:])
 
 
 # --- the bad files -------------------------------------------------------------------------
@@ -640,6 +683,28 @@ def cases() -> list[Case]:
         _case("Model library", "model name with a right-to-left override", "models", "add",
               "--models", "lib_rtl", "shirt.npz", "--name", "evil\u202eman",
               verify=_no_model_in("lib_rtl")),
+        # tracking (`photomodel track`, the valid sequence `frames/`)
+        _case("Tracking", "a frame of another size mid-sequence (000001/right.png 320 x 240)",
+              "track", "--frames", "trk_size", "--json", expected_code=1, summary=_tracked,
+              prepare=_sequence("trk_size", _resized("000001/right.png", (320, 240)))),
+        _case("Tracking", "a frame without its left.png", "track", "--frames", "trk_noleft",
+              "--json", expected_code=1, summary=_tracked,
+              prepare=_sequence("trk_noleft", lambda d: (d / "000001" / "left.png").unlink())),
+        _case("Tracking", "a corrupt frame (1 KiB of garbage amid 000001/right.png)",
+              "track", "--frames", "trk_corrupt", "--json", expected_code=1, summary=_tracked,
+              prepare=_sequence("trk_corrupt", lambda d: _corrupt_png(d / "000001" /
+                                                                     "right.png"))),
+        _case("Tracking", "a time that goes back (meta.json: 000002 at 0.05 s after 000001 at "
+              "0.1 s)", "track", "--frames", "trk_back", "--json", expected_code=0,
+              summary=_tracked, prepare=_sequence("trk_back", _timing(
+                  dict(zip(TRACK_FRAMES, (0.0, 0.1, 0.05), strict=True))))),
+        _case("Tracking", "an unreadable timing file (meta.json not JSON)", "track", "--frames",
+              "trk_meta", prepare=_sequence("trk_meta", lambda d: (d / "meta.json").write_text(
+                  "fps: 30\n"))),
+        _case("Tracking", "a folder with no frames", "track", "--frames", "trk_empty",
+              prepare=lambda w: (w / "trk_empty").mkdir()),
+        _case("Tracking", "`--frames` a file", "track", "--frames", "notes.txt",
+              prepare=keep_prepare, verify=keep_verify),
         # options
         _case("Options", "`--min-score` above 1", "locate", "--min-score", "2"),
         _case("Options", "negative seed", "simulate", "--out", "sim_seed", *sim, "--seed", "-1",
@@ -715,6 +780,10 @@ def setup(work: Path, env: dict[str, str]) -> None:
                          (work / "D" / "models" / "No.3" / "background.bmp", "background.bmp"),
                          (scene / "right.png", "right.png"), (scene / "left.png", "left.png")):
         shutil.copyfile(source, work / name)
+    for frame in TRACK_FRAMES:
+        (work / "frames" / frame).mkdir(parents=True)
+        for side in ("right.png", "left.png"):
+            shutil.copyfile(scene / side, work / "frames" / frame / side)
     (work / "out").mkdir()
 
 
@@ -747,7 +816,7 @@ def run_case(case: Case, work: Path, env: dict[str, str]) -> Outcome:
         if problem:
             problems.append(problem)
     summary = ""
-    if case.summary is not None and code == 0:
+    if case.summary is not None and code in (0, 1):
         try:
             summary = case.summary(stdout)
         except (ValueError, KeyError, TypeError) as exc:
@@ -829,7 +898,8 @@ def render(outcomes: Sequence[Outcome]) -> str:
         "when a case shows a traceback, exits with another code than the one listed here, or "
         "replaces or half-writes a file. **No case may show a traceback.** Exit code 2 is an "
         "input error (one line, `photomodel: error: FILE: problem`, nothing written); 0 means "
-        "the input was read, perhaps with a warning line.",
+        "the input was read, perhaps with a warning line; 1 (`track`) means that some frames "
+        "could not be read (one line each) and the others were tracked.",
         "",
         "The valid setup (in a temporary directory, shown as `DIR`): `photomodel simulate "
         "--out D --garments No.3 --scenes 1 --seed 1 --calibration-views 3` (its "
@@ -837,8 +907,10 @@ def render(outcomes: Sequence[Outcome]) -> str:
         "`background.bmp` and the scene's `right.png`, `left.png` copied beside it; "
         f"`{CAL_PAIRS}` holds three views of a 9x6 chessboard, `{CAL_PATTERN}`, by each hand "
         "camera, and the `cal_*` folders are copies of some of them, changed as the case "
-        "says), its model built into `shirt.npz` and added to the library `lib`. In the "
-        "commands,",
+        "says), its model built into `shirt.npz` and added to the library `lib`; the sequence "
+        f"`frames/` holds {len(TRACK_FRAMES)} frames ({', '.join(TRACK_FRAMES)}), each the "
+        "scene's pair, and the `trk_*` folders are copies of it, changed as the case says. "
+        "In the commands,",
         "",
     ]
     for cmd, valid in VALID.items():
