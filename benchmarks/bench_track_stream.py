@@ -17,20 +17,20 @@ belt (see ``bench_track.py``).
 
 Schedule
 --------
-Frame ``k`` of a run (``k = 0 .. N - 1``, ``N = (--warmup-s + --seconds) x fps``) is the
-sequence's frame ``k mod n`` (the sequence is cycled), stamped ``t_s = k / fps`` (the camera's
-clock: it keeps rising when the sequence starts again) and sent at ``t0 + k / fps`` by the
-client's clock, as a camera would send it, whether or not answers came back. Where the
-sequence starts again (``k mod n == 0``, ``k > 0``) the garment jumps back, so the client first
-sends the text message ``{"reset": true}`` and the in-process tracker is ``reset()`` before the
-same frame. Frames of the first ``--warmup-s`` seconds are sent but not counted; the figures
-are those of the ``--seconds`` after them.
+Frame ``k`` of a run (``k = 0 .. N - 1``, ``N = (--warmup-s + --seconds) x fps``) shows the
+sequence's frames back and forth from its middle (``n // 2, ..., n - 1, n - 2, ..., 0, 1,
+...``: the belt runs one way, then back; the garment never jumps, so the tracker needs no
+reset and detects only once, on frame 0, where the garment is wholly in view), stamped ``t_s =
+k / fps`` (the camera's clock, rising throughout) and sent at ``t0 + k / fps`` by the client's
+clock, as a camera would send it, whether or not answers came back. Frames of the first
+``--warmup-s`` seconds are sent but not counted; the figures are those of the ``--seconds``
+after them.
 
 In-process baseline
 -------------------
 In the benchmark process, before the streams (the service then idle): ``Tracker(model, rig)``
-on the decoded arrays of the whole schedule, in order, with the same ``t_s`` and resets
-(``rng = seed + k``; the service seeds its own detections), after an untimed pass over the
+on the decoded arrays of the whole schedule, in order, with the same ``t_s`` (``rng = seed +
+k``; the service seeds its own detections), after an untimed pass over the
 first sequence. Per-frame time of the call (median, p95, p99), over the counted frames; and
 the decoding of a frame message (:func:`photomodel.service._track_socket.decode_frame`, as the
 service does) per encoding, timed on one cycle.
@@ -70,7 +70,9 @@ Targets (``targets``: each figure, its limit and ``pass`` / ``fail``): raw p50 l
 the in-process median at most 2; resident memory growth over the raw run and over the slow
 reader's run under 5 %; for the slow reader, every frame accounted (answers + dropped + bad =
 sent, the answers' ``dropped`` = the ``/metrics`` difference) and no backlog (the last
-answer's ``received`` = frames sent, ``drain_s`` at most 0.25 s).
+answer's ``received`` = frames sent, ``drain_s`` at most 0.25 s). ``send_ms`` is how long the
+client's ``send`` of a frame took (a 1.8 MB raw frame does not fit the socket's buffer: the
+send returns once the service has read most of it).
 
 Run (about 3 minutes after the first, which renders 120 frames in about 30 s):
 ``.venv/bin/python benchmarks/bench_track_stream.py`` -> ``benchmarks/results/track_stream.json``.
@@ -153,23 +155,27 @@ def verdict(value: float | None, limit: float, below: bool = False) -> str:
 
 @dataclass(frozen=True)
 class Slot:
-    """One frame of a run: its number ``k``, the sequence frame ``index`` it shows, its time
-    ``t_s`` and whether a reset goes before it."""
+    """One frame of a run: its number ``k``, the sequence frame ``index`` it shows and its
+    time ``t_s``."""
 
     k: int
     index: int
     t_s: float
-    reset: bool
 
 
 def schedule(n_frames: int, n_sequence: int, fps: float) -> list[Slot]:
-    """The frames of a run: the sequence of ``n_sequence`` frames cycled over ``n_frames``,
-    ``t_s = k / fps`` rising throughout, a reset before every new start but the first."""
+    """The frames of a run: the sequence of ``n_sequence`` frames played back and forth from
+    its middle frame over ``n_frames`` (no jump from one frame to the next), ``t_s = k /
+    fps`` rising throughout."""
     if n_frames < 1 or n_sequence < 1 or not fps > 0:
         raise ValueError(f"expected n_frames >= 1, n_sequence >= 1, fps > 0; got {n_frames}, "
                          f"{n_sequence}, {fps}")
-    return [Slot(k, k % n_sequence, k / fps, k > 0 and k % n_sequence == 0)
-            for k in range(n_frames)]
+    period = max(1, 2 * (n_sequence - 1))
+    slots = []
+    for k in range(n_frames):
+        m = (k + n_sequence // 2) % period
+        slots.append(Slot(k, m if m < n_sequence else period - m, k / fps))
+    return slots
 
 
 def frame_of(t_s: float, fps: float) -> int:
@@ -319,8 +325,6 @@ def in_process(data: Data, slots: list[Slot], counted_from: int, fps: float,
     seconds, modes = [], []
     busy0, own0, wall0 = busy_cpu_s(), time.process_time(), time.perf_counter()
     for s in slots:
-        if s.reset:
-            tracker.reset()
         t0 = time.perf_counter()
         result = tracker(f.right_bgr[s.index], f.left_bgr[s.index], t_s=s.t_s, rng=seed + s.k)
         seconds.append(time.perf_counter() - t0)
@@ -392,6 +396,7 @@ def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot
     answers: list[Answer] = []
     sent = [0]
     t_send = [float("nan")] * len(slots)
+    send_s: list[float] = []
     late = 0
     stopped, got_last = threading.Event(), threading.Event()
     rss_trace: list[tuple[float, float]] = []
@@ -423,10 +428,9 @@ def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot
                 time.sleep(wait)
             elif wait < -1.0 / fps:
                 late += 1
-            if s.reset:
-                ws.send(json.dumps({"reset": True}))
             t_send[s.k] = time.perf_counter()
             ws.send(message)
+            send_s.append(time.perf_counter() - t_send[s.k])
             sent[0] = s.k + 1
         t_stop = time.perf_counter()
         stopped.set()
@@ -442,7 +446,7 @@ def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot
     counters1 = track_counters(httpx.get(service.url + "/metrics", timeout=30).text)
     return summarise_run(answers, slots, t_send, counted_from, fps, t0, t_stop, t_last,
                          answered_last, late, rss_start, rss_end["rss"], rss_trace, counters0,
-                         counters1, encoding, slow_read_s, {
+                         counters1, encoding, slow_read_s, send_s[counted_from:], {
                              "server_s": cpu_server, "client_s": cpu_client,
                              "other_cores": other_cores(
                                  None if busy0 is None or busy1 is None else busy1 - busy0,
@@ -455,7 +459,7 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
                   answered_last: bool, late: int, rss_start: float | None, rss_end: float,
                   rss_trace: list[tuple[float, float]], counters0: dict[str, float],
                   counters1: dict[str, float], encoding: str, slow_read_s: float,
-                  cpu: dict[str, Any]) -> dict[str, Any]:
+                  send_s: list[float], cpu: dict[str, Any]) -> dict[str, Any]:
     """A run's figures from its raw record."""
     n = len(slots)
     tracked = [a for a in answers if "error" not in a.doc]
@@ -488,6 +492,7 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
         "accounted": len(tracked) + dropped + len(errors) == n,
         "dropped_share": dropped / n,
         "latency_ms": quantiles_ms(latency),
+        "send_ms": quantiles_ms(send_s),
         "latency_p50_ms_by_second": by_second(sent_at, latency, start_t,
                                               max(1, int(round(counted_s)))),
         "server_seconds_ms": quantiles_ms(server_s),
@@ -495,6 +500,8 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
         "server_lag_frames": {"median": float(np.median(server_lag)) if server_lag else None,
                               "max": max(server_lag) if server_lag else None},
         "client_lag_frames": {"median": float(np.median(client_lag)) if client_lag else None,
+                              "p50_s": float(np.median(client_lag)) / fps if client_lag
+                              else None,
                               "p99": float(np.percentile(client_lag, 99)) if client_lag
                               else None,
                               "max": max(client_lag) if client_lag else None},
@@ -538,6 +545,8 @@ def run_targets(result: dict[str, Any]) -> dict[str, Any]:
         out["slow_reader_no_backlog"] = {
             "last_received": slow["last_received"], "sent": slow["frames_sent"],
             "drain_s": d, "drain_s_max": TARGET_DRAIN_S,
+            "answers_read_after_the_last_send": slow["answers_after_stop"],
+            "answer_age_p50_ms": slow["latency_ms"]["p50"],
             "verdict": "pass" if keeps_up and verdict(d, TARGET_DRAIN_S) == "pass"
             else "fail"}
     return out
@@ -612,9 +621,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                      "encoding": args.encoding, "slow_read_s": args.slow_read_s,
                      "garment": args.garment, "kind": args.kind,
                      "sequence_seconds": args.sequence_seconds,
-                     "cycling": "the sequence is cycled; t_s = k / fps keeps rising; "
-                                "{\"reset\": true} is sent (and the in-process tracker "
-                                "reset) before each new start",
+                     "cycling": "the sequence is played back and forth from its middle "
+                                "frame (no jump, no reset); t_s = k / fps rising",
                      "client": "websockets sync client, compression=None, one sender and "
                                "one reader thread, frames sent at t0 + k / fps",
                      "threads": threads(), "targets": {

@@ -15,13 +15,13 @@ load_benchmark("bench_track")
 bench = load_benchmark("bench_track_stream")
 
 
-def test_the_schedule_cycles_the_sequence_with_rising_times_and_resets() -> None:
-    slots = bench.schedule(7, 3, 60.0)
-    assert [s.index for s in slots] == [0, 1, 2, 0, 1, 2, 0]
-    assert [s.reset for s in slots] == [False, False, False, True, False, False, True]
+def test_the_schedule_plays_the_sequence_back_and_forth_with_rising_times() -> None:
+    slots = bench.schedule(9, 4, 60.0)
+    assert [s.index for s in slots] == [2, 3, 2, 1, 0, 1, 2, 3, 2]
     times = [s.t_s for s in slots]
     assert times == sorted(set(times)) and times[6] == pytest.approx(0.1)
-    assert [bench.frame_of(t, 60.0) for t in times] == list(range(7))
+    assert [bench.frame_of(t, 60.0) for t in times] == list(range(9))
+    assert [s.index for s in bench.schedule(3, 1, 60.0)] == [0, 0, 0]
     with pytest.raises(ValueError, match="n_frames"):
         bench.schedule(0, 3, 60.0)
 
@@ -61,6 +61,7 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
         assert run["frames_sent"] == 150 and run["frames_counted"] == 120, label
         assert run["answers"] > 0 and run["errors"] == 0, run["error_samples"]
         assert run["latency_ms"]["n"] > 0 and run["latency_ms"]["p50"] > 0
+        assert run["send_ms"]["n"] == run["frames_counted"]
         assert run["accounted"], label                     # answered + dropped = sent
         assert run["last_received"] == run["frames_sent"] and run["last_frame_answered"]
         assert run["rss_mib"]["start"] > 50 and run["rss_mib"]["end"] > 50
