@@ -71,7 +71,10 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
     assert slow["answers_after_stop"] > 0          # it had not read them all while sending
     targets = written["targets"]
     assert set(targets) == {"p50_ratio", "rss_growth", "slow_reader_rss_growth",
-                            "slow_reader_dropped_counted", "slow_reader_no_backlog"}
+                            "slow_reader_dropped_counted", "slow_reader_no_backlog_in_service",
+                            "slow_reader_no_backlog_of_answers"}
+    assert targets["slow_reader_no_backlog_of_answers"]["answers_read_after_the_last_send"] \
+        == slow["answers_after_stop"]
     assert all(t["verdict"] in ("pass", "fail") for t in targets.values())
     assert targets["slow_reader_dropped_counted"]["verdict"] == "pass"
     assert result["ratios"]["raw_p50_over_in_process_p50"] > 0
