@@ -55,7 +55,10 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
     assert written["versions"] and written["settings"]["seconds"] == 2.0
     assert written["tracker"]["track_sha256"]
     assert set(written["runs"]) == {"raw", "slow_reader"}
-    assert written["in_process"]["track_ms"]["p50"] > 0
+    baseline = written["in_process"]
+    assert baseline["track_ms"]["p50"] > 0 and len(baseline["rounds"]) == 2
+    assert baseline["track_ms"]["n"] == sum(r["track_ms"]["n"] for r in baseline["rounds"]) == 240
+    assert baseline["decode_ms"]["raw"]["p50"] > 0
     assert written["data"]["frames"] == 15 and written["data"]["shape"][2] == 3
     for label, run in written["runs"].items():
         assert run["frames_sent"] == 150 and run["frames_counted"] == 120, label
