@@ -39,10 +39,14 @@ def test_line_fit_recovers_a_constant_velocity_and_forgets_old_measurements() ->
     known = _LineFit(0.4, velocity_mm_s=np.array([1.0, 2.0, 0.0]))
     known.add(0.0, np.eye(4))
     np.testing.assert_allclose(known.predict(2.0)[:3, 3], [2.0, 4.0, 0.0])
-    two = _LineFit(0.4)
+    two = _LineFit(0.4, prior_mm_s=np.array([0.0, 7.0, 0.0]))
     two.add(0.0, np.eye(4))
     two.add(0.1, make_transform(np.eye(3), [5.0, 0.0, 0.0]))
-    np.testing.assert_allclose(two.velocity(), 0.0)       # too few to trust a velocity
+    np.testing.assert_allclose(two.velocity(), [0.0, 7.0, 0.0])   # too few: the prior
+    flat = _LineFit(1.0, normal=np.array([0.0, 0.0, -2.0]))
+    for k in range(5):
+        flat.add(k / 30.0, make_transform(np.eye(3), [0.0, 10.0 * k, 3.0 * k]))
+    np.testing.assert_allclose(flat.velocity(), [0.0, 300.0, 0.0], atol=1e-9)  # in the plane
 
 
 def test_tcp_jacobian_and_joint_rates_move_the_tcp_as_asked(setup) -> None:  # type: ignore[no-untyped-def]

@@ -69,6 +69,33 @@ def _empty(right: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return out[0], out[1]
 
 
+def test_a_given_prediction_replaces_the_motion_model_s() -> None:
+    """A moving hand tells the tracker where the garment should be (ego-motion): after the
+    camera jumped 35 mm sideways between two frames, the frame is tracked from the given pose
+    to the truth."""
+    from photomodel.geometry import invert_transform, make_transform
+    from photomodel.sim import ConveyorView, hand_stereo_rig, hand_table_pose, station_model
+
+    rig = hand_stereo_rig()
+    view = ConveyorView("No.6", speed_mm_s=0.0, seed=0, key=("predicted",), rig=rig)
+    T_table_cam1 = invert_transform(hand_table_pose(rig))
+    moved = make_transform(np.eye(3), [35.0, -20.0, 0.0]) @ T_table_cam1
+    a = view.frame(0, 0.0, lambda t: T_table_cam1)
+    b = view.frame(1, 1 / 30, lambda t: moved)
+    track = Tracker(station_model("No.6", 0), rig)
+    assert track(a.right_bgr, a.left_bgr, t_s=0.0, rng=0).found
+    assert b.T_cam1_model is not None
+    r = track(b.right_bgr, b.left_bgr, t_s=1 / 30, predicted=b.T_cam1_model)
+    assert r.found and r.mode == "track", r.note
+    assert _error_mm(r, b.T_cam1_model) < 1.5
+    with pytest.raises(InputError, match="predicted"):
+        track(b.right_bgr, b.left_bgr, t_s=2 / 30, predicted=np.eye(3))
+    bad = np.eye(4)
+    bad[0, 0] = 2.0
+    with pytest.raises(InputError, match="predicted: its rotation part"):
+        track(b.right_bgr, b.left_bgr, t_s=3 / 30, predicted=bad)
+
+
 def test_a_timestamp_that_goes_back_restarts_with_a_note() -> None:
     model, rig, right, left, _, _ = _case()
     track = Tracker(model, rig)

@@ -99,6 +99,9 @@ class ServoSettings:
         A measurement of a garment less visible than this share is ignored: close above it
         the hand sees too little of it to be accurate; from the first such frame of the
         descent on, the pick finishes on the prediction.
+    max_lost_frames : int
+        After this many frames in a row without the garment the cameras are no longer used
+        and the pick finishes on the prediction.
     timeout_s : float
         An order that has not closed after this long fails, s.
     tracker : TrackerConfig
@@ -111,7 +114,7 @@ class ServoSettings:
     track_height_mm: float = 300.0
     descent_mm_s: float = 250.0
     max_speed_mm_s: float = 600.0
-    max_turn_deg_s: float = 90.0
+    max_turn_deg_s: float = 180.0
     gain_per_s: float = 6.0
     align_mm: float = 5.0
     align_deg: float = 2.0
@@ -120,6 +123,7 @@ class ServoSettings:
     fit_window_s: float = 0.8
     gate_mm: float = 10.0
     min_visible: float = 0.6
+    max_lost_frames: int = 5
     timeout_s: float = 8.0
     tracker: TrackerConfig = field(
         default_factory=lambda: TrackerConfig(levels=(1, 0), margin_mm=30.0))
@@ -160,16 +164,27 @@ class ServoTick:
     T_cam1_model: NDArray[np.float64] | None = None
     mode: str | None = None
     visible: float = math.nan
+    note: str | None = None
 
 
 class _LineFit:
     """The garment's pose predicted by a constant-velocity line through recent measurements
-    (base frame, mm); the orientation is the latest measurement's."""
+    (base frame, mm); the orientation is the latest measurement's.
 
-    def __init__(self, window_s: float, velocity_mm_s: NDArray[np.float64] | None = None
-                 ) -> None:
+    ``velocity_mm_s`` (3,) replaces the fitted velocity always, ``prior_mm_s`` (3,) only while
+    fewer than three measurements make the fit (zero velocity without one). A fitted velocity
+    keeps only its part in the plane of normal ``normal`` (3,): a garment on a table or a belt
+    moves in its plane, and the depth of the poses measured close above it wavers most.
+    """
+
+    def __init__(self, window_s: float, velocity_mm_s: NDArray[np.float64] | None = None,
+                 prior_mm_s: NDArray[np.float64] | None = None,
+                 normal: NDArray[np.float64] | None = None) -> None:
         self.window_s = window_s
+        self.normal = None if normal is None else np.asarray(normal, float) / np.linalg.norm(
+            normal)
         self.known_velocity = velocity_mm_s
+        self.prior = np.zeros(3) if prior_mm_s is None else np.asarray(prior_mm_s, float)
         self._t: deque[float] = deque()
         self._p: deque[NDArray[np.float64]] = deque()
         self._R = np.eye(3)
@@ -192,10 +207,12 @@ class _LineFit:
         if self.known_velocity is not None:
             return float(t[-1]), p[-1], self.known_velocity
         if len(t) < 3:
-            return float(t[-1]), p[-1], np.zeros(3)
+            return float(t[-1]), p[-1], self.prior
         t_ref = float(t.mean())
         dt = t - t_ref
         velocity = (dt @ (p - p.mean(axis=0))) / float(dt @ dt)
+        if self.normal is not None:
+            velocity = velocity - (velocity @ self.normal) * self.normal
         return t_ref, p.mean(axis=0), velocity
 
     def predict(self, t_s: float) -> NDArray[np.float64]:
@@ -256,7 +273,8 @@ class _Aim:
         self.keep_ticks = keep_ticks
         self.ticks: list[ServoTick] = []
         v_belt = order.T_base_table[:3, :3] @ np.array([0.0, servo.conveyor_mm_s, 0.0])
-        self.fit = _LineFit(servo.fit_window_s, v_belt if mode == "belt" else None)
+        self.fit = _LineFit(servo.fit_window_s, v_belt if mode == "belt" else None,
+                            v_belt if mode == "servo" else None, order.T_base_table[:3, 2])
         assert order.T_base_model_first is not None
         self.fit.add(0.0, order.T_base_model_first)
         gripper = config.pick.gripper
@@ -273,13 +291,20 @@ class _Aim:
     # -- the target ----------------------------------------------------------------------
 
     def target(self, t_s: float, h_mm: float, x_prefer: NDArray[np.float64]
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(``T_base_tcp`` target (4, 4), garment prediction (4, 4)) for time ``t_s``."""
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The command's target for time ``t_s`` at height ``h_mm``: the grasp orientation
+        (3, 3), where the steered point should be (3,) (``h_mm`` above the grasp point along
+        the grasp's z), and the garment's predicted pose (4, 4)."""
         T_model = self.fit.predict(t_s)
         T_grasp = grasp_pose(T_model, self.config.pick.grasp_point_mm, x_prefer)
+        return T_grasp[:3, :3], T_grasp[:3, 3] - h_mm * T_grasp[:3, 2], T_model
+
+    def steered(self, T_tcp: NDArray[np.float64], h_mm: float) -> NDArray[np.float64]:
+        """The point the command steers (3,), base frame: the middle of the rig's baseline
+        (projected along the TCP's axis) at the tracking height, the TCP at the grasp, in
+        between in proportion to ``h_mm``."""
         s = min(max(h_mm / self.servo.track_height_mm, 0.0), 1.0)
-        offset = -s * self.view_shift_tcp + np.array([0.0, 0.0, -h_mm])
-        return T_grasp @ make_transform(np.eye(3), offset), T_model
+        return T_tcp[:3, 3] + T_tcp[:3, :3] @ (s * self.view_shift_tcp)
 
     # -- vision --------------------------------------------------------------------------
 
@@ -325,24 +350,29 @@ class _Aim:
         phase = "follow"
         settled_s: float | None = None
         blind = False
+        lost_run = 0
         max_turn = math.radians(servo.max_turn_deg_s)
         n_ticks = int(math.ceil(servo.timeout_s * servo.fps))
+        x_prefer = _gripper_x(arm, q, self.tcp_mm, self.T_hand_tcp, self.fit.predict(0.0))
         for k in range(n_ticks):
             t = k * dt
             T_tcp = forward_kinematics(arm, q) @ self.T_hand_tcp
             if phase == "descend":
                 h = max(0.0, h - servo.descent_mm_s * dt)
-            T_target, T_aim = self.target(t, h, T_tcp[:3, 0])
-            # feedforward: the garment's velocity, the descent and the shrinking view shift
+            R_target, p_target, T_aim = self.target(t, h, x_prefer)
+            # steer the rig's point, so that turning the hand keeps the garment in view;
+            # feedforward: the garment's velocity, the descent, the steered point's slide
             rate = servo.descent_mm_s if phase == "descend" and h > 0 else 0.0
-            ff_tcp = (self.view_shift_tcp / servo.track_height_mm + [0.0, 0.0, 1.0]) * rate
-            v_ff = self.fit.velocity() + T_target[:3, :3] @ ff_tcp
-            e_pos = T_target[:3, 3] - T_tcp[:3, 3]
-            e_rot = Rotation.from_matrix(T_target[:3, :3] @ T_tcp[:3, :3].T).as_rotvec()
-            v = _clip_norm(v_ff + servo.gain_per_s * e_pos, servo.max_speed_mm_s)
+            r = self.steered(T_tcp, h) - T_tcp[:3, 3]
+            e_pos = p_target - T_tcp[:3, 3] - r
+            e_rot = Rotation.from_matrix(R_target @ T_tcp[:3, :3].T).as_rotvec()
+            v_point = _clip_norm(self.fit.velocity() + rate * R_target[:, 2]
+                                 + servo.gain_per_s * e_pos, servo.max_speed_mm_s)
             w = _clip_norm(servo.gain_per_s * e_rot, max_turn)
+            slide = rate / servo.track_height_mm * (T_tcp[:3, :3] @ self.view_shift_tcp)
+            v = v_point - np.cross(w, r) + slide
             qdot = _joint_rates(arm, q, self.tcp_mm, np.concatenate([v, w]))
-            image, T_seen, seen_mode, seen_share = None, None, None, math.nan
+            image, T_seen, seen_mode, seen_share, note = None, None, None, math.nan, None
             if k == 0:
                 first = self.order.first
                 image, T_seen, seen_mode = self.order.image_first, first.T_cam1_model, first.mode
@@ -350,14 +380,15 @@ class _Aim:
             elif self.mode == "servo" and not blind:
                 image, result = self.look(k, t, q, qdot)
                 T_seen = result.T_cam1_model if result.found else None
-                seen_mode, seen_share = result.mode, float(result.visible)
+                seen_mode, seen_share, note = result.mode, float(result.visible), result.note
                 # close above the garment a lost view does not come back: finish on the fit
-                blind = phase == "descend" and not (
-                    result.found and result.visible >= servo.min_visible)
+                lost_run = 0 if result.found else lost_run + 1
+                blind = lost_run >= servo.max_lost_frames or (phase == "descend" and not (
+                    result.found and result.visible >= servo.min_visible))
             if self.keep_ticks:
                 T_true = self.order.T_base_table @ self.order.scene.T_table_model(t)
                 self.ticks.append(ServoTick(t, q.copy(), T_true, T_aim, phase, image, T_seen,
-                                            seen_mode, seen_share))
+                                            seen_mode, seen_share, note))
             q = q + qdot * dt
             if not arm.within_limits(q):
                 return self._record(t + dt, q, "joint limits reached during the approach")
@@ -367,9 +398,9 @@ class _Aim:
                 phase = "descend"
             elif phase == "descend" and h == 0.0:
                 settled_s = t if settled_s is None else settled_s
-                T_goal, _ = self.target(t + dt, 0.0, T_tcp[:3, 0])
+                _, p_goal, _ = self.target(t + dt, 0.0, x_prefer)
                 T_now = forward_kinematics(arm, q) @ self.T_hand_tcp
-                close = np.linalg.norm(T_goal[:3, 3] - T_now[:3, 3]) <= servo.close_mm
+                close = np.linalg.norm(p_goal - T_now[:3, 3]) <= servo.close_mm
                 if close or t + dt - settled_s >= servo.settle_s:
                     return self._record(t + dt, q, None)
         return self._record(n_ticks * dt, q, f"not closed within {servo.timeout_s:g} s")
@@ -394,6 +425,34 @@ class _Aim:
                        track_ms_max=float(ms.max()),
                        blind_s=float(t_close - self.last_used_s))
         return out
+
+
+def _gripper_x(arm: Any, q: NDArray[np.float64], tcp_mm: float, T_hand_tcp: NDArray[np.float64],
+               T_base_model: NDArray[np.float64], margin_deg: float = 45.0
+               ) -> NDArray[np.float64]:
+    """Which half turn of the two-finger gripper to grasp with (its x (3,), base frame).
+
+    The garment's own x when the wrist can turn there with ``margin_deg`` to spare: the
+    cameras, square to the gripper, then see the garment as upright as its photo, where the
+    tracker's rotations are well inside their range; else the other half turn, when that
+    fits; else the smaller turn. The yaw about the base's z is turned by the last joint that
+    turns the hand about that axis (the wrist, for a hand pointing down); the margin leaves
+    room for the yaw the other joints add while the arm follows the garment.
+    """
+    T_tcp = forward_kinematics(arm, q) @ T_hand_tcp
+    J = _tcp_jacobian(arm, q, tcp_mm)
+    j = int(np.flatnonzero(np.abs(J[5]) > 0.7)[-1])
+    x_now = T_tcp[:3, 0]
+    margin = math.radians(margin_deg)
+    best, best_cost = T_base_model[:3, 0], math.inf
+    for flipped, x in enumerate((T_base_model[:3, 0], -T_base_model[:3, 0])):
+        turn = math.atan2(x_now[0] * x[1] - x_now[1] * x[0], x_now[0] * x[0] + x_now[1] * x[1])
+        q_j = q[j] + turn / J[5, j]
+        fits = arm.q_min_rad[j] + margin <= q_j <= arm.q_max_rad[j] - margin
+        cost = (0.0 if fits else 10.0) + flipped + abs(turn) / 10.0
+        if cost < best_cost:
+            best, best_cost = x, cost
+    return np.asarray(best, dtype=np.float64)
 
 
 def _rig_centre_cam1(rig: StereoRig) -> NDArray[np.float64]:
