@@ -9,18 +9,21 @@ commanded joint rates exactly for one tick (an ideal joint servo). The command i
 twist of the TCP, the target's velocity plus a proportional pull towards it, limited in speed
 and turn rate, mapped to joint rates by damped least squares on the TCP's Jacobian.
 
-The target is the grasp pose (:func:`~photomodel.robot.grasp_pose`) of the garment's pose
-predicted for the tick's start (the command adds the target's velocity), raised by a height
-``h`` along the grasp's z and shifted so that, at the tracking height, the middle of the
-stereo rig rather than the gripper lies above the grasp point (the garment stays in the
-middle of both views); the shift shrinks with ``h``.
-The prediction is a straight line at constant velocity fitted, in the base frame, to the last
+The target is the grasp pose (:func:`~photomodel.robot.grasp_pose`, with the half turn of
+the gripper that keeps the garment upright in the cameras when the wrist allows it) of the
+garment's pose predicted for the tick's start (the command adds the target's velocity),
+raised by a height ``h`` along the grasp's z. The steered point is the middle of the rig's
+baseline at the tracking height (the garment stays in the middle of both views, also while
+the hand turns) and slides to the TCP as ``h`` falls. The prediction is a straight line at
+constant velocity in the table's plane fitted, in the base frame, to the last
 :attr:`ServoSettings.fit_window_s` of measurements (``T_base_hand(q_k) @ T_hand_cam1 @
-T_cam1_model``); a measurement far from the prediction is ignored. Phases: ``follow`` (``h`` at
-the tracking height until the TCP is aligned with its target), ``descend`` (``h`` falls at
-:attr:`ServoSettings.descent_mm_s`), ``close`` (the gripper closes when ``h`` is 0 and the TCP
-is within :attr:`ServoSettings.close_mm` of its target, or :attr:`ServoSettings.settle_s` after
-``h`` reached 0).
+T_cam1_model``), with the belt's nominal velocity until there are three; a measurement far
+from the prediction, or of a garment less than :attr:`ServoSettings.min_visible` in view, is
+ignored. Phases: ``follow`` (``h`` at the tracking height until the steered point is aligned
+with its target), ``descend`` (``h`` falls at :attr:`ServoSettings.descent_mm_s`; once the
+garment is less than ``min_visible`` in view the cameras are no longer used), ``close`` (the
+gripper closes when ``h`` is 0 and the TCP is within :attr:`ServoSettings.close_mm` of its
+target, or :attr:`ServoSettings.settle_s` after ``h`` reached 0).
 
 Three ways to aim (:data:`AIM_MODES`) run on the same order with the same controller:
 ``open_loop`` holds the pose of the first frame (the cell's single measurement before it
@@ -102,6 +105,10 @@ class ServoSettings:
     max_lost_frames : int
         After this many frames in a row without the garment the cameras are no longer used
         and the pick finishes on the prediction.
+    view_limit_deg : float
+        While the cameras are used, the hand turns the garment at most this far from upright
+        in the images (within the tracker's in-plane range of +-140 deg); a grasp with the
+        gripper's other half turn finishes its turn blind.
     timeout_s : float
         An order that has not closed after this long fails, s.
     tracker : TrackerConfig
@@ -124,6 +131,7 @@ class ServoSettings:
     gate_mm: float = 10.0
     min_visible: float = 0.6
     max_lost_frames: int = 5
+    view_limit_deg: float = 120.0
     timeout_s: float = 8.0
     tracker: TrackerConfig = field(
         default_factory=lambda: TrackerConfig(levels=(1, 0), margin_mm=30.0))
@@ -290,14 +298,29 @@ class _Aim:
 
     # -- the target ----------------------------------------------------------------------
 
-    def target(self, t_s: float, h_mm: float, x_prefer: NDArray[np.float64]
+    def target(self, t_s: float, h_mm: float, x_prefer: NDArray[np.float64],
+               view_limit_deg: float | None = None, x_now: NDArray[np.float64] | None = None
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The command's target for time ``t_s`` at height ``h_mm``: the grasp orientation
         (3, 3), where the steered point should be (3,) (``h_mm`` above the grasp point along
-        the grasp's z), and the garment's predicted pose (4, 4)."""
+        the grasp's z), and the garment's predicted pose (4, 4).
+
+        With ``view_limit_deg``, a grasp that would turn the garment farther than that from
+        upright in the cameras (the gripper's other half turn) is turned only that far, on
+        the side of the gripper's x now, ``x_now`` (3,), so that the tracker can follow; the
+        rest of the turn waits until the cameras are no longer used.
+        """
         T_model = self.fit.predict(t_s)
         T_grasp = grasp_pose(T_model, self.config.pick.grasp_point_mm, x_prefer)
-        return T_grasp[:3, :3], T_grasp[:3, 3] - h_mm * T_grasp[:3, 2], T_model
+        R = T_grasp[:3, :3]
+        if view_limit_deg is not None and x_now is not None:
+            x_garment = T_model[:3, 0]
+            off = _yaw_between(x_garment, R[:, 0])
+            limit = math.radians(view_limit_deg)
+            if abs(off) > limit:
+                side = math.copysign(1.0, _yaw_between(x_garment, x_now))
+                R = Rotation.from_rotvec([0.0, 0.0, side * limit - off]).as_matrix() @ R
+        return R, T_grasp[:3, 3] - h_mm * T_grasp[:3, 2], T_model
 
     def steered(self, T_tcp: NDArray[np.float64], h_mm: float) -> NDArray[np.float64]:
         """The point the command steers (3,), base frame: the middle of the rig's baseline
@@ -359,7 +382,9 @@ class _Aim:
             T_tcp = forward_kinematics(arm, q) @ self.T_hand_tcp
             if phase == "descend":
                 h = max(0.0, h - servo.descent_mm_s * dt)
-            R_target, p_target, T_aim = self.target(t, h, x_prefer)
+            watching = self.mode == "servo" and not blind
+            R_target, p_target, T_aim = self.target(
+                t, h, x_prefer, servo.view_limit_deg if watching else None, T_tcp[:3, 0])
             # steer the rig's point, so that turning the hand keeps the garment in view;
             # feedforward: the garment's velocity, the descent, the steered point's slide
             rate = servo.descent_mm_s if phase == "descend" and h > 0 else 0.0
@@ -398,9 +423,11 @@ class _Aim:
                 phase = "descend"
             elif phase == "descend" and h == 0.0:
                 settled_s = t if settled_s is None else settled_s
-                _, p_goal, _ = self.target(t + dt, 0.0, x_prefer)
+                R_goal, p_goal, _ = self.target(t + dt, 0.0, x_prefer)
                 T_now = forward_kinematics(arm, q) @ self.T_hand_tcp
-                close = np.linalg.norm(p_goal - T_now[:3, 3]) <= servo.close_mm
+                turned = Rotation.from_matrix(R_goal @ T_now[:3, :3].T).magnitude()
+                close = (np.linalg.norm(p_goal - T_now[:3, 3]) <= servo.close_mm
+                         and math.degrees(turned) <= servo.align_deg)
                 if close or t + dt - settled_s >= servo.settle_s:
                     return self._record(t + dt, q, None)
         return self._record(n_ticks * dt, q, f"not closed within {servo.timeout_s:g} s")
@@ -427,6 +454,12 @@ class _Aim:
         return out
 
 
+def _yaw_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    """The angle (rad) about the base's z from direction ``a`` (3,) to ``b`` (3,), in
+    (-pi, pi]."""
+    return math.atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1])
+
+
 def _gripper_x(arm: Any, q: NDArray[np.float64], tcp_mm: float, T_hand_tcp: NDArray[np.float64],
                T_base_model: NDArray[np.float64], margin_deg: float = 45.0
                ) -> NDArray[np.float64]:
@@ -446,7 +479,7 @@ def _gripper_x(arm: Any, q: NDArray[np.float64], tcp_mm: float, T_hand_tcp: NDAr
     margin = math.radians(margin_deg)
     best, best_cost = T_base_model[:3, 0], math.inf
     for flipped, x in enumerate((T_base_model[:3, 0], -T_base_model[:3, 0])):
-        turn = math.atan2(x_now[0] * x[1] - x_now[1] * x[0], x_now[0] * x[0] + x_now[1] * x[1])
+        turn = _yaw_between(x_now, x)
         q_j = q[j] + turn / J[5, j]
         fits = arm.q_min_rad[j] + margin <= q_j <= arm.q_max_rad[j] - margin
         cost = (0.0 if fits else 10.0) + flipped + abs(turn) / 10.0
