@@ -206,3 +206,32 @@ def test_a_token_guards_the_stream(cell_data, tmp_path: Path) -> None:
         except ConnectionClosed:      # the 1008 close, when it comes before the client's own
             pass
         assert answer is not None and "warming" in answer["error"]
+
+
+def test_answers_on_demand_never_pile_up_behind_a_slow_reader(service, cell_data) -> None:
+    """With ``credit=1`` the server answers only when asked: frames sent meanwhile wait (the
+    newest wins, the others are dropped), so the next answer is about the newest frame."""
+    right, left = _pair(cell_data)
+    sent = 10
+    with _ws(service, "model=No.3&credit=1") as ws:
+        ws.send(encode_frame(right, left, t_s=0.0))
+        first = _answer(ws)
+        assert first["mode"] == "detect" and first["received"] == 1
+        for k in range(1, sent):
+            ws.send(encode_frame(right, left, t_s=k / 60))
+        with pytest.raises(TimeoutError):
+            ws.recv(timeout=3)                      # nothing asked for, nothing sent
+        ws.send(json.dumps({"credit": 1}))
+        second = _answer(ws)
+        assert second["received"] == sent and second["dropped"] == sent - 2
+        assert second["t_s"] == pytest.approx((sent - 1) / 60)   # the newest frame's
+        ws.send(json.dumps({"credit": 0}))
+        assert "credit: expected a count from 1" in _answer(ws)["error"]
+
+
+def test_a_bad_credit_is_refused_with_the_reason(service) -> None:
+    with _ws(service, "model=No.3&credit=many") as ws:
+        doc = json.loads(ws.recv(timeout=30))
+        assert "credit: expected a count from 0" in doc["error"]
+        with pytest.raises(ConnectionClosed):
+            ws.recv(timeout=30)

@@ -15,6 +15,13 @@ and a text message other than ``{"reset": ...}``, is answered by ``{"error": ...
 while a frame is being tracked, only the latest one that arrives is kept, the ones it
 replaces are counted as dropped (and in ``/metrics``), so a slow client never makes the
 server queue frames.
+
+Answers on demand (``/track?model=NAME&credit=N``): the server then sends at most as many
+answers as the client has asked for, ``N`` at the start and ``k`` more with each text message
+``{"credit": k}``; while none is asked for, frames wait (the newest wins, the others are
+dropped). An error about a text message is answered at once and costs no credit. A client
+that reads slowly grants one answer after each it has read and so always gets the answer to
+the newest frame, never a backlog of old ones.
 """
 
 from __future__ import annotations
@@ -41,6 +48,8 @@ MAX_HEADER_BYTES = 4096
 """Largest JSON header of a frame message."""
 POLICY_VIOLATION = 1008
 """WebSocket close code of a refused stream (unknown model, bad query)."""
+MAX_CREDIT = 1_000_000
+"""Most answers a client may ask for ahead (``credit``)."""
 
 
 def encode_frame(right: bytes, left: bytes, *, t_s: float | None = None,
@@ -142,8 +151,14 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             await ws.send_json({"error": str(exc)})
             await ws.close(code=POLICY_VIOLATION)
             return
+        try:
+            credit = _initial_credit(ws.query_params.get("credit"))
+        except InputError as exc:
+            await ws.send_json({"error": str(exc)})
+            await ws.close(code=POLICY_VIOLATION)
+            return
         state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
-                                 "reset": False, "text_error": None}
+                                 "reset": False, "text_error": None, "credit": credit}
         arrived = anyio.Event()
 
         def track(message: bytes) -> dict[str, Any]:
@@ -169,18 +184,24 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                         state["frame"] = message["bytes"]
                     elif message.get("text") is not None:
                         try:
-                            if _is_reset(message["text"]):
-                                state["reset"] = True    # a later text does not cancel it
+                            reset, more = _control(message["text"])
                         except InputError as exc:
                             state["text_error"] = str(exc)    # the latest one is answered
+                        else:
+                            state["reset"] = state["reset"] or reset  # not cancelled later
+                            if more and state["credit"] is not None:
+                                state["credit"] = min(state["credit"] + more, MAX_CREDIT)
                     arrived.set()
             finally:
                 state["open"] = False
                 arrived.set()
 
-        async def send(out: dict[str, Any]) -> bool:
-            """Send one answer with the counts; False when the client has gone."""
+        async def send(out: dict[str, Any], spend: bool = True) -> bool:
+            """Send one answer with the counts (spending one credit when ``spend``); False
+            when the client has gone."""
             out.update(received=state["received"], dropped=state["dropped"])
+            if spend and state["credit"] is not None:
+                state["credit"] -= 1
             try:
                 await ws.send_text(json.dumps(finite(out), allow_nan=False))
             except (WebSocketDisconnect, RuntimeError):
@@ -194,13 +215,15 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                 arrived = anyio.Event()
                 if not state["open"]:
                     return
-                if state["text_error"] is not None:
+                if state["text_error"] is not None:   # answered at once, free of credit
                     error, state["text_error"] = state["text_error"], None
-                    if not await send({"error": error}):
+                    if not await send({"error": error}, spend=False):
                         return
                 if state["reset"]:
                     state["reset"] = False
                     tracker.reset()
+                if state["credit"] is not None and state["credit"] <= 0:
+                    continue
                 frame, state["frame"] = state["frame"], None
                 if frame is None:
                     continue
@@ -223,19 +246,39 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
     return endpoint
 
 
-def _is_reset(text: str) -> bool:
-    """Whether a text message asks to start over (``{"reset": true}``).
+def _control(text: str) -> tuple[bool, int]:
+    """What a text message asks: to start over (``{"reset": true}``) and how many more
+    answers (``{"credit": k}``, k from 1 to :data:`MAX_CREDIT`).
 
     Raises
     ------
     InputError
-        When the message is not a JSON object with the key ``reset``.
+        When the message is not a JSON object with the key ``reset`` or ``credit``, or its
+        credit is not such a count.
     """
     try:
         doc = json.loads(text)
     except ValueError:
         doc = None
-    if not isinstance(doc, dict) or "reset" not in doc:
+    if not isinstance(doc, dict) or not ({"reset", "credit"} & set(doc)):
         shown = text if len(text) <= 60 else text[:57] + "..."
-        raise InputError("text message", f'expected {{"reset": true}}, got {shown!r}')
-    return bool(doc["reset"])
+        raise InputError("text message", f'expected {{"reset": true}} or {{"credit": k}}, '
+                         f"got {shown!r}")
+    credit = doc.get("credit", 0)
+    if "credit" in doc and not (isinstance(credit, int) and not isinstance(credit, bool)
+                                and 1 <= credit <= MAX_CREDIT):
+        raise InputError("credit", f"expected a count from 1 to {MAX_CREDIT}, got {credit!r}")
+    return bool(doc.get("reset", False)), int(credit)
+
+
+def _initial_credit(value: str | None) -> int | None:
+    """The ``credit`` query parameter as a count (None: answers are not asked for)."""
+    if value is None:
+        return None
+    try:
+        credit = int(value)
+    except ValueError:
+        credit = -1
+    if not 0 <= credit <= MAX_CREDIT:
+        raise InputError("credit", f"expected a count from 0 to {MAX_CREDIT}, got {value!r}")
+    return credit
