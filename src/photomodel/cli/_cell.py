@@ -77,9 +77,8 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError("--conditions", str(exc)) from None
 
-    from photomodel.cell import CellConfig, run_cell, write_json_atomic
+    from photomodel.cell import CellConfig, run_cell
     from photomodel.cli._progress import count_progress
-    from photomodel.experiments import run_metadata
     from photomodel.robot import animate_plan, check_animation_path
 
     animate = check_animation_path(args.animate) if args.animate else None
@@ -102,12 +101,8 @@ def run(args: argparse.Namespace) -> int:
                      gripper=settings.gripper, outline_model_mm=outcome.model.outline_mm,
                      title=f"PA10-7C cell: order {outcome.record['order']}, "
                            f"{outcome.record['garment']}")
-    if args.out:
-        write_json_atomic(args.out, {**run_metadata(), **report.to_json_dict()})
     s = report.summary
-    if args.json:
-        print(json.dumps(s))
-    else:
+    if not _emit(args, report):
         e = s["grasp_error_mm_found"]
         print(f"{s['orders']} orders: found {s['found']}, plans reachable within limits "
               f"{s['plans_reachable_within_limits']}/{s['found']}, grasp within "
@@ -118,10 +113,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> int:
     """``cell --servo``: orders on a conveyor, open loop, belt-predicted and servoed."""
-    from photomodel.cell import ServoSettings, animate_servo, run_servo_cell, write_json_atomic
+    from photomodel.cell import ServoSettings, animate_servo, run_servo_cell
     from photomodel.cli._options import check_float
     from photomodel.cli._progress import count_progress
-    from photomodel.experiments import run_metadata
 
     check_float("--conveyor-mm-s", args.conveyor_mm_s, 0.0, MAX_BELT_MM_S, unit="mm/s")
     check_float("--fps", args.fps, MIN_FPS, MAX_FPS, unit="frames per second")
@@ -134,11 +128,8 @@ def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> i
                       layout=config.layout, gripper=config.pick.gripper,
                       title=f"servoed pick: order {r['order']}, {r['garment']} on a belt at "
                             f"{servo.conveyor_mm_s:g} mm/s, camera at {servo.fps:g} fps")
-    if args.out:
-        write_json_atomic(args.out, {**run_metadata(), **report.to_json_dict()})
     s = report.summary
-    if args.json:
-        print(json.dumps(s))
+    if _emit(args, report):
         return 0
     print(f"{s['orders']} orders on a belt at {servo.conveyor_mm_s:g} mm/s, found {s['found']}; "
           f"grasp error (mm) when the gripper closes:")
@@ -148,6 +139,19 @@ def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> i
               f"{a['within_tolerance']}, mean {_fmt(e['mean'])} sd {_fmt(e['sd'])} "
               f"max {_fmt(e['max'])}")
     return 0
+
+
+def _emit(args: argparse.Namespace, report: Any) -> bool:
+    """Write ``--out`` (the run's metadata, summary and cycles) and print the summary as JSON
+    with ``--json``; whether it was printed."""
+    from photomodel.cell import write_json_atomic
+    from photomodel.experiments import run_metadata
+
+    if args.out:
+        write_json_atomic(args.out, {**run_metadata(), **report.to_json_dict()})
+    if args.json:
+        print(json.dumps(report.summary))
+    return bool(args.json)
 
 
 def _fmt(x: float | None) -> str:
