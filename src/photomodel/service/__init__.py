@@ -1,5 +1,5 @@
-"""The cell service: a resident photomodel that a cell controller calls over HTTP
-(``photomodel serve``; contract in docs/contracts.md)."""
+"""The cell service: a resident photomodel that a cell controller calls over HTTP, or a PLC
+over OPC UA (``photomodel serve``; contract in docs/contracts.md)."""
 
 import lazy_loader
 
@@ -9,10 +9,12 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_app": ["create_app"],
         "_cell": ["CellService", "Conflict", "NotFound", "ServiceConfig", "Unavailable",
                   "read_token"],
+        "_opcua": ["OpcUaFace", "OpcUaThread", "run_opcua_in_thread"],
         "_ros": ["pose_stamped"],
         "_server": ["ServiceThread", "serve"],
     },
 )
 
-__all__ = ["CellService", "Conflict", "NotFound", "ServiceConfig", "ServiceThread",
-           "Unavailable", "create_app", "pose_stamped", "read_token", "serve"]
+__all__ = ["CellService", "Conflict", "NotFound", "OpcUaFace", "OpcUaThread", "ServiceConfig",
+           "ServiceThread", "Unavailable", "create_app", "pose_stamped", "read_token",
+           "run_opcua_in_thread", "serve"]

@@ -1,0 +1,548 @@
+"""The cell service's OPC UA face: a PLC calls ``Locate(model)`` or ``Identify()`` and reads
+the pose from variables (``photomodel serve --opcua PORT``; contract in docs/contracts.md,
+design in docs/method/opcua.md).
+
+The face is a thin adapter: it takes two blocking callables (the service passes
+``CellService.trigger_locate`` and ``trigger_identify``, which grab a fresh stereo pair and
+answer as HTTP ``/trigger/locate`` and ``/trigger/identify`` do) and runs them one at a time
+in a worker thread, never on the server's event loop. ``asyncua`` (the ``plc`` extra) is
+imported only when a face is built.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import enum
+import hmac
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from datetime import UTC, datetime
+from functools import partial
+from typing import TYPE_CHECKING, Any
+from urllib.parse import urlsplit
+
+from photomodel.errors import InputError, PhotomodelError
+
+if TYPE_CHECKING:
+    from asyncua import Server, ua
+
+__all__ = ["DEFAULT_ENDPOINT", "NAMESPACE", "OBJECT_NAME", "OpcUaFace", "OpcUaThread",
+           "State", "run_opcua_in_thread"]
+
+DEFAULT_ENDPOINT = "opc.tcp://127.0.0.1:4840/photomodel/"
+"""Where the face listens unless told otherwise: this machine only."""
+
+NAMESPACE = "urn:photomodel:cell"
+"""The namespace of the face's nodes (index 2 on a fresh server: the first registered)."""
+
+OBJECT_NAME = "PhotomodelVision"
+"""The object under ``Objects`` that holds the methods and the result variables; every node's
+id is the string ``PhotomodelVision.<BrowseName>`` in :data:`NAMESPACE`."""
+
+USER = "photomodel"
+"""The user name a client gives with the token as its password (when a token is set)."""
+
+_EXTRA_HINT = "the OPC UA face needs the 'plc' extra: pip install photomodel[plc]"
+_NO_TIME = datetime(1601, 1, 1, tzinfo=UTC)   # OPC UA's null DateTime
+_log = logging.getLogger("photomodel.service.opcua")
+
+
+class State(enum.Enum):
+    """The face's state, modelled on OPC 40100's vision state machine; the value is the
+    ``StateNumber`` that OPC 40100 gives the state it stands for (Ready and SingleExecution
+    of its automatic mode, Error of the top level)."""
+
+    READY = 6
+    BUSY = 7
+    ERROR = 3
+
+    @property
+    def text(self) -> str:
+        """The ``State`` variable's value: ``"Ready"``, ``"Busy"`` or ``"Error"``."""
+        return self.name.capitalize()
+
+
+def _import_asyncua() -> Any:
+    try:
+        import asyncua
+    except ImportError:
+        raise ImportError(_EXTRA_HINT) from None
+    return asyncua
+
+
+def check_endpoint(endpoint: str, token: str | None) -> tuple[str, int]:
+    """The host and port of ``endpoint`` (``opc.tcp://HOST:PORT/PATH``; port 0 takes a free
+    one); InputError (a ValueError) for another form, and for a host that is not this machine
+    only (127.0.0.0/8, ::1, ``localhost``) without a ``token``."""
+    from photomodel.service._server import is_loopback
+
+    try:
+        parts = urlsplit(endpoint)
+        port = parts.port
+    except ValueError as exc:
+        raise InputError("endpoint", f"expected opc.tcp://HOST:PORT/PATH, got {endpoint!r} "
+                                     f"({exc})") from None
+    if parts.scheme != "opc.tcp" or not parts.hostname or port is None:
+        raise InputError("endpoint", f"expected opc.tcp://HOST:PORT/PATH, got {endpoint!r}")
+    if token is None and not is_loopback(parts.hostname):
+        raise InputError("endpoint", f"binding OPC UA to {parts.hostname} (not this machine "
+                                     "only) needs credentials: give the service's token "
+                                     "(--token-file); clients then log in as user "
+                                     f"{USER!r} with the token as password")
+    return parts.hostname, port
+
+
+def _check_token(token: str | None) -> str | None:
+    if token is not None and (len(token) < 16 or any(c.isspace() or not c.isprintable()
+                                                     for c in token)):
+        raise InputError("token", "expected one token of at least 16 printable characters "
+                                  "without spaces")
+    return token
+
+
+class _Refused(Exception):
+    """A call answered with a Bad status before any work (busy, wrong arguments)."""
+
+    def __init__(self, code: int, text: str, argument: int | None = None) -> None:
+        super().__init__(text)
+        self.code = code
+        self.text = text
+        self.argument = argument
+
+
+def _status_of(exc: BaseException) -> tuple[int, str]:
+    """The Bad status code and the one-line text that answer a failed job."""
+    from asyncua import ua
+
+    from photomodel.service._cell import Conflict, NotFound, Unavailable
+
+    if isinstance(exc, NotFound):
+        return ua.StatusCodes.BadNotFound, str(exc)
+    if isinstance(exc, Unavailable):
+        return ua.StatusCodes.BadResourceUnavailable, str(exc)
+    if isinstance(exc, Conflict):
+        return ua.StatusCodes.BadInvalidState, str(exc)
+    if isinstance(exc, PhotomodelError):
+        return ua.StatusCodes.BadInvalidArgument, str(exc)
+    return ua.StatusCodes.BadInternalError, (f"internal error ({type(exc).__name__}: {exc}); "
+                                             "the service log has the details")
+
+
+def _numbers(value: Any, n: int) -> list[float]:
+    """``n`` floats from a JSON list (NaN for null or a missing list)."""
+    if not isinstance(value, Sequence) or len(value) != n:
+        return [math.nan] * n
+    return [math.nan if v is None else float(v) for v in value]
+
+
+def _number(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _frame_time(answer: dict[str, Any]) -> datetime:
+    """When the answer's frame was taken (UTC): its ``frame_t_s`` (Unix seconds), else the
+    ``pose_stamped`` header's stamp, else now."""
+    t = answer.get("frame_t_s")
+    if t is None:
+        stamped = answer.get("pose_stamped")
+        if isinstance(stamped, dict):
+            t = stamped.get("header", {}).get("stamp")
+    if t is None:
+        t = time.time()
+    return datetime.fromtimestamp(float(t), UTC)
+
+
+class OpcUaFace:
+    """An OPC UA server with one object, ``PhotomodelVision``, whose methods run the given
+    callables and whose variables hold the last result and the state.
+
+    Parameters
+    ----------
+    locate : callable
+        ``locate(model) -> dict``: the ``/locate`` answer (the ``locate --json`` object plus
+        ``id``) for a fresh frame; raises a :class:`PhotomodelError` with a one-line message
+        on failure. Blocking: it runs in the face's worker thread.
+    identify : callable
+        ``identify() -> dict``: the ``/identify`` answer for a fresh frame, likewise.
+    endpoint : str
+        ``opc.tcp://HOST:PORT/PATH`` to listen on; port 0 takes a free one (see
+        :attr:`endpoint_url` once started). Only this machine unless ``token`` is given.
+    token : str or None
+        The service's token (:func:`photomodel.service.read_token`). When set, clients log
+        in as user :data:`USER` with the token as password and anonymous sessions are
+        refused; without it, any local client may connect anonymously.
+
+    Raises
+    ------
+    ImportError
+        Without ``asyncua`` (the ``plc`` extra).
+    InputError
+        An endpoint of another form, or one that is not local without a token.
+
+    Examples
+    --------
+    >>> face = OpcUaFace(cell.trigger_locate, cell.trigger_identify)   # doctest: +SKIP
+    >>> handle = run_opcua_in_thread(face)                             # doctest: +SKIP
+    >>> handle.stop()                                                  # doctest: +SKIP
+    """
+
+    def __init__(self, locate: Callable[[str], dict[str, Any]],
+                 identify: Callable[[], dict[str, Any]], *, endpoint: str = DEFAULT_ENDPOINT,
+                 token: str | None = None) -> None:
+        _import_asyncua()
+        self.token = _check_token(token)
+        self.host, self.port = check_endpoint(endpoint, self.token)
+        self._endpoint = endpoint
+        self._locate = locate
+        self._identify = identify
+        self._server: Server | None = None
+        self._nodes: dict[str, Any] = {}
+        self._executor: ThreadPoolExecutor | None = None
+        self._job: str | None = None          # what runs now, for the Busy answer
+        self.state = State.READY
+
+    @property
+    def endpoint_url(self) -> str:
+        """The endpoint, with the port actually bound once started."""
+        parts = urlsplit(self._endpoint)
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return parts._replace(netloc=f"{host}:{self.port}").geturl()
+
+    async def __aenter__(self) -> OpcUaFace:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.stop()
+
+    async def start(self) -> None:
+        """Build the address space and listen (about 1-2 s: asyncua builds the standard
+        address space first)."""
+        asyncua = _import_asyncua()
+        ua = asyncua.ua
+        server = asyncua.Server(user_manager=_TokenUsers(self.token) if self.token else None)
+        await server.init()
+        server.set_server_name("photomodel cell")
+        server.set_endpoint(self._endpoint)
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        server.set_identity_tokens([ua.UserNameIdentityToken] if self.token
+                                   else [ua.AnonymousIdentityToken])
+        idx = await server.register_namespace(NAMESPACE)
+        await self._build(server, idx)
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="photomodel-opcua")
+        await server.start()
+        bound = server.bserver.port if server.bserver is not None else self.port
+        self.port = int(bound) if bound else self.port
+        self._server = server
+        _log.info("OPC UA face listening on %s", self.endpoint_url)
+
+    async def stop(self) -> None:
+        """Stop listening; a job in flight finishes in its thread, unanswered."""
+        server, self._server = self._server, None
+        if server is not None:
+            await server.stop()
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
+            self._executor = None
+
+    # -- the address space ---------------------------------------------------------------
+
+    async def _build(self, server: Server, idx: int) -> None:
+        from asyncua import ua
+
+        def nid(name: str) -> ua.NodeId:
+            return ua.NodeId(f"{OBJECT_NAME}.{name}", idx)
+
+        obj = await server.nodes.objects.add_object(ua.NodeId(OBJECT_NAME, idx),
+                                                    ua.QualifiedName(OBJECT_NAME, idx))
+        nan3, nan4 = [math.nan] * 3, [math.nan] * 4
+        variables: list[tuple[str, Any, ua.VariantType, int | None, str]] = [
+            ("State", State.READY.text, ua.VariantType.String, None,
+             "Ready, Busy (a Locate or Identify runs) or Error (the last one failed)"),
+            ("StateNumber", State.READY.value, ua.VariantType.UInt32, None,
+             "OPC 40100's StateNumber of State: 6 Ready, 7 Busy (SingleExecution), 3 Error"),
+            ("ErrorText", "", ua.VariantType.String, None,
+             "why State is Error (empty otherwise)"),
+            ("LastCallText", "", ua.VariantType.String, None,
+             "the last call's Bad answer in words (refused or failed); empty after Good"),
+            ("Found", False, ua.VariantType.Boolean, None,
+             "whether the last result found a garment (score >= min_score)"),
+            ("Model", "", ua.VariantType.String, None, "the model located or identified"),
+            ("PositionMm", nan3, ua.VariantType.Double, 3,
+             "x, y, z of the model's origin in camera 1's frame, mm (NaN: no pose)"),
+            ("QuatWxyz", nan4, ua.VariantType.Double, 4,
+             "the model's orientation in camera 1's frame, quaternion w, x, y, z"),
+            ("ThetaDeg", math.nan, ua.VariantType.Double, None,
+             "in-plane angle of the model's x axis about camera 1's z axis, deg"),
+            ("Score", math.nan, ua.VariantType.Double, None, "the result's score in [0, 1]"),
+            ("Timestamp", _NO_TIME, ua.VariantType.DateTime, None,
+             "when the result's frame was taken (UTC)"),
+            ("ResultId", "", ua.VariantType.String, None,
+             "the result's id (HTTP /results/{id}); empty while Busy or after a failure"),
+        ]
+        for name, value, vtype, length, text in variables:
+            var = await obj.add_variable(nid(name), ua.QualifiedName(name, idx),
+                                         ua.Variant(value, vtype), datatype=vtype.value)
+            if length is not None:
+                await var.write_value_rank(1)
+                await var.write_array_dimensions([length])
+            await var.write_attribute(ua.AttributeIds.Description,
+                                      ua.DataValue(ua.Variant(ua.LocalizedText(text))))
+            self._nodes[name] = var
+
+        def arg(name: str, vtype: ua.VariantType, text: str) -> ua.Argument:
+            return ua.Argument(Name=name, DataType=ua.NodeId(vtype.value), ValueRank=-1,
+                               ArrayDimensions=[], Description=ua.LocalizedText(text))
+
+        s, b = ua.VariantType.String, ua.VariantType.Boolean
+        found = arg("found", b, "whether the garment was found")
+        rid = arg("result_id", s, "the result's id (also in ResultId)")
+        await obj.add_method(nid("Locate"), ua.QualifiedName("Locate", idx), self._on_locate,
+                             [arg("model", s, "the model's name in the library")],
+                             [found, rid])
+        await obj.add_method(nid("Identify"), ua.QualifiedName("Identify", idx),
+                             self._on_identify, [],
+                             [found, arg("model", s, "the model identified (empty: none)"), rid])
+        await obj.add_method(nid("Reset"), ua.QualifiedName("Reset", idx), self._on_reset,
+                             [], [])
+
+    async def _write(self, **values: Any) -> None:
+        from asyncua import ua
+
+        types = {"State": ua.VariantType.String, "StateNumber": ua.VariantType.UInt32,
+                 "ErrorText": ua.VariantType.String, "LastCallText": ua.VariantType.String,
+                 "Found": ua.VariantType.Boolean, "Model": ua.VariantType.String,
+                 "PositionMm": ua.VariantType.Double, "QuatWxyz": ua.VariantType.Double,
+                 "ThetaDeg": ua.VariantType.Double, "Score": ua.VariantType.Double,
+                 "Timestamp": ua.VariantType.DateTime, "ResultId": ua.VariantType.String}
+        for name, value in values.items():
+            await self._nodes[name].write_value(ua.Variant(value, types[name]))
+
+    async def _enter(self, state: State, error_text: str = "") -> None:
+        self.state = state
+        await self._write(State=state.text, StateNumber=state.value, ErrorText=error_text)
+
+    # -- the methods -----------------------------------------------------------------------
+
+    async def _on_locate(self, parent: Any, *args: Any) -> Any:
+        return await self._call("Locate", args, ["model"])
+
+    async def _on_identify(self, parent: Any, *args: Any) -> Any:
+        return await self._call("Identify", args, [])
+
+    async def _on_reset(self, parent: Any, *args: Any) -> Any:
+        from asyncua import ua
+
+        try:
+            _check_args("Reset", args, [])
+            if self.state is State.BUSY:
+                raise _Refused(ua.StatusCodes.BadInvalidState,
+                               f"Reset: busy with {self._job}; a search cannot be aborted")
+        except _Refused as refused:
+            return await self._refuse(refused, len(args))
+        if self.state is State.ERROR:
+            await self._enter(State.READY)
+        await self._write(LastCallText="")
+        return []
+
+    async def _call(self, method: str, args: tuple[Any, ...], names: list[str]) -> Any:
+        from asyncua import ua
+
+        try:
+            values = _check_args(method, args, names)
+            if self.state is State.BUSY:
+                raise _Refused(ua.StatusCodes.BadInvalidState,
+                               f"{method}: busy with {self._job}; call again when State is "
+                               "Ready")
+        except _Refused as refused:
+            return await self._refuse(refused, len(args))
+        loop = asyncio.get_running_loop()
+        if method == "Locate":
+            job = partial(self._locate, values[0])
+            self._job = f"Locate({values[0]!r})"
+        else:
+            job = self._identify
+            self._job = "Identify()"
+        # Busy, and no stale result to read meanwhile (written without a pause: a client
+        # never reads a mix of two results)
+        await self._enter(State.BUSY)
+        await self._write(Found=False, Model="", PositionMm=[math.nan] * 3,
+                          QuatWxyz=[math.nan] * 4, ThetaDeg=math.nan, Score=math.nan,
+                          Timestamp=_NO_TIME, ResultId="", LastCallText="")
+        try:
+            assert self._executor is not None
+            answer = await loop.run_in_executor(self._executor, job)
+            outputs = await self._publish(method, answer)
+        except Exception as exc:  # noqa: BLE001 - every failure is answered, the server stays
+            code, text = _status_of(exc)
+            if code == ua.StatusCodes.BadInternalError:
+                _log.error("%s failed", self._job, exc_info=exc)
+            self._job = None
+            await self._enter(State.ERROR, text)
+            await self._write(LastCallText=text)
+            return _bad(code, text, len(args))
+        self._job = None
+        await self._enter(State.READY)
+        await self._write(LastCallText="")     # a refusal meanwhile was answered before this
+        return outputs
+
+    async def _publish(self, method: str, answer: dict[str, Any]) -> list[ua.Variant]:
+        """Write ``answer`` into the result variables; the method's output arguments."""
+        from asyncua import ua
+
+        found = bool(answer.get("found"))
+        model = answer.get("model") or ""
+        result_id = str(answer.get("id") or "")
+        values = {"Found": found, "Model": str(model),
+                  "PositionMm": _numbers(answer.get("position_mm"), 3),
+                  "QuatWxyz": _numbers(answer.get("quat_wxyz"), 4),
+                  "ThetaDeg": _number(answer.get("theta_deg")),
+                  "Score": _number(answer.get("score")),
+                  "Timestamp": _frame_time(answer), "ResultId": result_id}
+        await self._write(**values)
+        outputs = [ua.Variant(found, ua.VariantType.Boolean)]
+        if method == "Identify":
+            outputs.append(ua.Variant(str(model), ua.VariantType.String))
+        outputs.append(ua.Variant(result_id, ua.VariantType.String))
+        return outputs
+
+    async def _refuse(self, refused: _Refused, n_args: int) -> Any:
+        await self._write(LastCallText=refused.text)
+        return _bad(refused.code, refused.text, n_args, refused.argument)
+
+
+def _check_args(method: str, args: Sequence[Any], names: list[str]) -> list[str]:
+    """The String values of ``args`` (one per name); _Refused when there are too few, too
+    many, or one is not a String."""
+    from asyncua import ua
+
+    if len(args) < len(names):
+        raise _Refused(ua.StatusCodes.BadArgumentsMissing,
+                       f"{method}: expected {len(names)} argument(s) "
+                       f"({', '.join(names)}), got {len(args)}")
+    if len(args) > len(names):
+        raise _Refused(ua.StatusCodes.BadTooManyArguments,
+                       f"{method}: expected {len(names)} argument(s)"
+                       + (f" ({', '.join(names)})" if names else "") + f", got {len(args)}")
+    values = []
+    for i, (name, variant) in enumerate(zip(names, args, strict=True)):
+        vtype = getattr(variant, "VariantType", None)
+        value = getattr(variant, "Value", None)
+        if vtype != ua.VariantType.String or not isinstance(value, str):
+            got = "null" if value is None else getattr(vtype, "name", type(variant).__name__)
+            if isinstance(value, list):
+                got = f"an array of {got}"
+            raise _Refused(ua.StatusCodes.BadInvalidArgument,
+                           f"{method}: argument {name!r}: expected a String, got {got}", i)
+        values.append(value)
+    return values
+
+
+def _bad(code: int, text: str, n_args: int, argument: int | None = None) -> Any:
+    """A CallMethodResult with a Bad status; an argument at fault gets BadTypeMismatch and
+    the text as its diagnostic (the per-argument slots OPC UA has for it)."""
+    from asyncua import ua
+
+    result = ua.CallMethodResult(StatusCode=ua.StatusCode(code))
+    if argument is not None:
+        result.InputArgumentResults = [
+            ua.StatusCode(ua.StatusCodes.BadTypeMismatch if i == argument else
+                          ua.StatusCodes.Good) for i in range(n_args)]
+        result.InputArgumentDiagnosticInfos = [
+            ua.DiagnosticInfo(AdditionalInfo=text if i == argument else None)
+            for i in range(n_args)]
+    return result
+
+
+class _TokenUsers:
+    """asyncua's user manager: user :data:`USER` with the token as password, nobody else."""
+
+    def __init__(self, token: str) -> None:
+        self._token = token.encode()
+
+    def get_user(self, iserver: Any, username: str | None = None,
+                 password: str | None = None, certificate: Any = None) -> Any:
+        from asyncua.crypto.permission_rules import User, UserRole
+
+        if (username == USER and password is not None
+                and hmac.compare_digest(password.encode(), self._token)):
+            return User(role=UserRole.User, name=username)
+        _log.warning("OPC UA login refused (user %r)", username)
+        return None
+
+
+class OpcUaThread:
+    """A face served by its own asyncio loop in a daemon thread, beside uvicorn's.
+
+    Examples
+    --------
+    >>> with OpcUaThread(face) as opcua:            # doctest: +SKIP
+    ...     print(opcua.endpoint_url)
+    """
+
+    def __init__(self, face: OpcUaFace) -> None:
+        self.face = face
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._started = threading.Event()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="photomodel-opcua",
+                                        daemon=True)
+
+    @property
+    def endpoint_url(self) -> str:
+        return self.face.endpoint_url
+
+    def _run(self) -> None:
+        asyncio.run(self._main())
+
+    async def _main(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        try:
+            await self.face.start()
+        except BaseException as exc:  # noqa: BLE001 - handed to the thread that started us
+            self._error = exc
+            self._started.set()
+            return
+        self._started.set()
+        try:
+            await self._stop.wait()
+        finally:
+            await self.face.stop()
+
+    def start(self, timeout_s: float = 60.0) -> OpcUaThread:
+        """Start the thread and wait until the face listens; the face's error if it could
+        not (a port in use: OSError). A handle already started is returned as it is."""
+        if self._thread.ident is not None:
+            return self
+        self._thread.start()
+        if not self._started.wait(timeout_s):
+            raise RuntimeError(f"the OPC UA face did not start within {timeout_s:g} s")
+        if self._error is not None:
+            self._thread.join(timeout=5)
+            raise self._error
+        return self
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        """Stop the face and its thread (idempotent)."""
+        if self._loop is not None and self._stop is not None and self._thread.is_alive():
+            self._loop.call_soon_threadsafe(self._stop.set)
+        if self._thread.is_alive():
+            self._thread.join(timeout=timeout_s)
+
+    def __enter__(self) -> OpcUaThread:
+        return self.start()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()
+
+
+def run_opcua_in_thread(face: OpcUaFace, timeout_s: float = 60.0) -> OpcUaThread:
+    """Serve ``face`` in a daemon thread with its own event loop; returns once it listens.
+    Call ``.stop()`` on the handle to end it."""
+    return OpcUaThread(face).start(timeout_s)
