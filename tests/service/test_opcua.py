@@ -24,7 +24,7 @@ pytest.importorskip("asyncua")
 from asyncua import Client, ua  # noqa: E402
 
 from photomodel.errors import InputError  # noqa: E402
-from photomodel.service._cell import NotFound, Unavailable  # noqa: E402
+from photomodel.service._cell import Conflict, NotFound, Unavailable  # noqa: E402
 from photomodel.service._opcua import (  # noqa: E402
     NAMESPACE,
     OpcUaFace,
@@ -72,6 +72,11 @@ class FakeCell:
             raise NotFound("model", "no model named 'Y'")
         if model == "warming":
             raise Unavailable("service", "warming up (loading kernels)")
+        if model == "camera-down":
+            source = pytest.importorskip("photomodel.service._source")
+            raise source.SourceError("replay:/data", "no frames: the folder went away")
+        if model == "no-source":
+            raise Conflict("source", "this service has no camera source")
         if model == "boom":
             raise RuntimeError("a bug")
         if model == "slow":
@@ -172,7 +177,8 @@ def test_a_failed_call_is_bad_with_its_text_and_enters_error(face: OpcUaThread) 
     async def body(s: Session) -> list[Any]:
         seen = []
         for model, code in [("X", "BadInvalidArgument"), ("Y", "BadNotFound"),
-                            ("warming", "BadResourceUnavailable")]:
+                            ("warming", "BadResourceUnavailable"),
+                            ("no-source", "BadInvalidState")]:
             with pytest.raises(ua.UaStatusCodeError) as exc:
                 await s.call("Locate", model)
             seen.append((_code(exc), code, await s.values()))
@@ -186,8 +192,9 @@ def test_a_failed_call_is_bad_with_its_text_and_enters_error(face: OpcUaThread) 
 
     seen, after = _run(face.endpoint_url, body)
     texts = ["model: no model 'X' in the library", "model: no model named 'Y'",
-             "service: warming up (loading kernels)"]
-    for (got, expected, v), text in zip(seen[:3], texts, strict=True):
+             "service: warming up (loading kernels)",
+             "source: this service has no camera source"]
+    for (got, expected, v), text in zip(seen[:4], texts, strict=True):
         assert got == expected
         assert (v["State"], v["StateNumber"]) == ("Error", 3)
         assert v["ErrorText"] == v["LastCallText"] == text
@@ -195,9 +202,22 @@ def test_a_failed_call_is_bad_with_its_text_and_enters_error(face: OpcUaThread) 
         assert v["Found"] is False and v["ResultId"] == "" and math.isnan(v["Score"])
         assert v["Timestamp"].year == 1601               # OPC UA's null DateTime
     assert after[0] is True
-    assert (seen[3]["State"], seen[3]["ErrorText"], seen[3]["Found"]) == ("Ready", "", True)
-    assert seen[4] == {"State": "Ready", "StateNumber": 6, "ErrorText": "",
+    assert (seen[4]["State"], seen[4]["ErrorText"], seen[4]["Found"]) == ("Ready", "", True)
+    assert seen[5] == {"State": "Ready", "StateNumber": 6, "ErrorText": "",
                        "LastCallText": ""}
+
+
+def test_a_camera_source_down_is_resource_unavailable(face: OpcUaThread) -> None:
+    pytest.importorskip("photomodel.service._source")
+
+    async def body(s: Session) -> tuple[str, dict[str, Any]]:
+        with pytest.raises(ua.UaStatusCodeError) as exc:
+            await s.call("Locate", "camera-down")
+        return _code(exc), await s.values(["State", "ErrorText"])
+
+    code, v = _run(face.endpoint_url, body)
+    assert code == "BadResourceUnavailable" and v["State"] == "Error"
+    assert v["ErrorText"].startswith("replay:/data: ")
 
 
 def test_an_internal_error_is_bad_without_a_traceback(face: OpcUaThread) -> None:
@@ -385,3 +405,12 @@ def test_the_example_client(face: OpcUaThread) -> None:
                          timeout=120, check=False)
     assert bad.returncode == 1 and bad.stdout == ""
     assert bad.stderr.strip().endswith("BadInvalidArgument: model: no model 'X' in the library")
+
+
+def test_an_asyncua_older_than_2_is_named(monkeypatch: pytest.MonkeyPatch,
+                                          cell: FakeCell) -> None:
+    import importlib.metadata
+
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: "1.1.8")
+    with pytest.raises(ImportError, match=r"needs asyncua 2.0 or later \(found 1.1.8\)"):
+        OpcUaFace(cell.locate, cell.identify)

@@ -43,6 +43,9 @@ OBJECT_NAME = "PhotomodelVision"
 """The object under ``Objects`` that holds the methods and the result variables; every node's
 id is the string ``PhotomodelVision.<BrowseName>`` in :data:`NAMESPACE`."""
 
+APPLICATION_URI = "urn:photomodel:cell:server"
+"""The server's ApplicationUri (namespace 1)."""
+
 USER = "photomodel"
 """The user name a client gives with the token as its password (when a token is set)."""
 
@@ -71,6 +74,16 @@ def _import_asyncua() -> Any:
         import asyncua
     except ImportError:
         raise ImportError(_EXTRA_HINT) from None
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        found = version("asyncua")
+    except PackageNotFoundError:     # imported from a source tree: trust it
+        return asyncua
+    major = found.split(".")[0]
+    if major.isdigit() and int(major) < 2:
+        raise ImportError(f"the OPC UA face needs asyncua 2.0 or later (found {found}): "
+                          "pip install -U 'photomodel[plc]'")
     return asyncua
 
 
@@ -115,14 +128,23 @@ class _Refused(Exception):
 
 
 def _status_of(exc: BaseException) -> tuple[int, str]:
-    """The Bad status code and the one-line text that answer a failed job."""
+    """The Bad status code and the one-line text that answer a failed job: the HTTP side's
+    mapping (404 BadNotFound, 409 BadInvalidState, 503 BadResourceUnavailable, other input
+    errors 400 BadInvalidArgument; anything else BadInternalError)."""
     from asyncua import ua
 
     from photomodel.service._cell import Conflict, NotFound, Unavailable
 
+    unavailable: tuple[type[Exception], ...] = (Unavailable,)
+    try:           # a camera source that cannot deliver a pair (HTTP 503 too)
+        from photomodel.service._source import SourceError
+    except ImportError:
+        pass
+    else:
+        unavailable = (Unavailable, SourceError)
     if isinstance(exc, NotFound):
         return ua.StatusCodes.BadNotFound, str(exc)
-    if isinstance(exc, Unavailable):
+    if isinstance(exc, unavailable):
         return ua.StatusCodes.BadResourceUnavailable, str(exc)
     if isinstance(exc, Conflict):
         return ua.StatusCodes.BadInvalidState, str(exc)
@@ -227,6 +249,7 @@ class OpcUaFace:
         server = asyncua.Server(user_manager=_TokenUsers(self.token) if self.token else None)
         await server.init()
         server.set_server_name("photomodel cell")
+        await server.set_application_uri(APPLICATION_URI)
         server.set_endpoint(self._endpoint)
         server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
         server.set_identity_tokens([ua.UserNameIdentityToken] if self.token
