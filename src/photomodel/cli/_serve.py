@@ -40,6 +40,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--threshold-file", type=Path, default=None,
                    help="found threshold (default: the library's threshold.json, else the "
                         "user's)")
+    p.add_argument("--source", default=None, metavar="SPEC",
+                   help="camera source, for POST /trigger/locate, /trigger/identify and "
+                        "/record: sim[:GARMENT][,conveyor=MM_S] (the simulated hand cameras; "
+                        "needs the simulated rig's --stereo), replay:DIR (recorded pairs at "
+                        "their frame rate, looping) or opencv:R,L (two cv2.VideoCapture: "
+                        "device numbers, paths, pipelines, video files); opened at start "
+                        "(an error stops the start), re-opened by itself after a stop")
+    p.add_argument("--max-skew-ms", type=float, default=5.0,
+                   help="largest time between a pair's two views, ms (default 5; a pair "
+                        "further apart is refused: unsynchronised cameras give wrong poses)")
+    p.add_argument("--record-dir", type=Path, default=None,
+                   help="where POST /record writes (default: 'recordings' beside --models)")
     p.add_argument("--log-level", default="info",
                    choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(run=run)
@@ -53,6 +65,12 @@ def run(args: argparse.Namespace) -> int:
     check_int("--max-upload-mb", args.max_upload_mb, 1, 1024)
     check_int("--results-kept", args.results_kept, 1, 1000)
     check_int("--prepared-models", args.prepared_models, 1, 100_000)
+    if not (args.max_skew_ms >= 0 and args.max_skew_ms <= 10_000):
+        raise InputError("--max-skew-ms", f"expected 0 to 10000 ms, got {args.max_skew_ms:g}")
+    if args.source is not None:
+        from photomodel.service._source import parse_source_spec
+
+        parse_source_spec(args.source)     # a bad spec before anything is loaded
     from photomodel.service._cell import CellService, ServiceConfig, read_token
     from photomodel.service._server import is_loopback, serve
 
@@ -63,7 +81,9 @@ def run(args: argparse.Namespace) -> int:
     config = ServiceConfig(stereo=args.stereo, models=args.models, camera=args.camera,
                            searches=args.searches, results_kept=args.results_kept,
                            max_upload_bytes=args.max_upload_mb << 20, token=token,
-                           threshold=args.threshold_file, prepared_models=args.prepared_models)
+                           threshold=args.threshold_file, prepared_models=args.prepared_models,
+                           source=args.source, max_skew_ms=args.max_skew_ms,
+                           record_dir=args.record_dir)
     cell = CellService(config)
 
     def say(line: str) -> None:
@@ -71,5 +91,11 @@ def run(args: argparse.Namespace) -> int:
 
     say(f"serve: http://{args.host}:{args.port}/ (warming up: /health says 'warming' until "
         "ready)")
-    serve(cell, args.host, args.port, progress=say, log_level=args.log_level)
+    if cell.source is not None:
+        say(f"serve: camera source {cell.source.name} (POST /trigger/locate, "
+            "/trigger/identify, /record)")
+    try:
+        serve(cell, args.host, args.port, progress=say, log_level=args.log_level)
+    finally:
+        cell.close()
     return 0

@@ -33,12 +33,13 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
+from photomodel.service._source import SourceError
 from photomodel.service._threads import SearchThreads
 from photomodel.service._track_socket import track_endpoint
 
 __all__ = ["create_app"]
 
-_STATUS = {NotFound: 404, Conflict: 409, Unavailable: 503}
+_STATUS = {NotFound: 404, Conflict: 409, Unavailable: 503, SourceError: 503}
 _LATENCY_BUCKETS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 2.0,
                       5.0, 10.0, 30.0)
 
@@ -103,8 +104,10 @@ def _endpoint(path: str) -> str:
         return "/models/{name}" + ("/preview.png" if len(parts) > 2 else "")
     if head == "results" and len(parts) >= 2:
         return "/results/{id}" + ("/overlay.png" if len(parts) > 2 else "")
+    if head == "trigger" and parts[1:] in (["locate"], ["identify"]):
+        return f"/trigger/{parts[1]}"
     known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static",
-             "track"}
+             "track", "record"}
     return f"/{head}" if head in known else "other"
 
 
@@ -347,6 +350,13 @@ _STATIC_TYPES = {"app.js": "text/javascript; charset=utf-8",
                  "style.css": "text/css; charset=utf-8"}
 
 
+def _source_routes(cell: CellService, work: Callable[..., Any]) -> list[Route]:
+    """The camera source's routes (imported here: that module uses this one's helpers)."""
+    from photomodel.service._trigger import trigger_routes
+
+    return trigger_routes(cell, work)
+
+
 def create_app(cell: CellService, *, warm: bool = True,
                progress: Callable[[str], None] | None = None) -> ASGIApp:
     """The ASGI application of ``cell`` (serve it with uvicorn).
@@ -503,7 +513,7 @@ def create_app(cell: CellService, *, warm: bool = True,
         Route("/stats", stats),
         Route("/metrics", prometheus),
         WebSocketRoute("/track", track_endpoint(cell, metrics.registry, _finite)),
-    ]
+    ] + _source_routes(cell, work)
     app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
         PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,
         ClientDisconnect: on_disconnect, Exception: on_internal})

@@ -31,6 +31,8 @@ from photomodel.locate import Locator, draw_overlay, load_threshold
 from photomodel.model import PhotoModel, build_model
 from photomodel.service._results import Latencies, ResultRing
 from photomodel.service._ros import pose_stamped
+from photomodel.service._source import DEFAULT_MAX_SKEW_MS, CameraSource, StereoGrab
+from photomodel.service._source_link import SourceLink
 
 __all__ = ["EAGER_PREPARED", "CellService", "Conflict", "NotFound", "ServiceConfig",
            "Unavailable", "read_token"]
@@ -82,6 +84,14 @@ class ServiceConfig:
         When set, every request needs ``Authorization: Bearer <token>``.
     threshold : Path or None
         Threshold file (default: the library's ``threshold.json``, else the user's).
+    source : str or None
+        The camera source's spec (``sim``, ``replay:DIR``, ``opencv:R,L``;
+        :func:`~photomodel.service._source.open_source`), opened at start; None: no camera,
+        the trigger endpoints answer 409.
+    max_skew_ms : float
+        Largest difference between a pair's two timestamps, ms.
+    record_dir : Path or None
+        Where ``POST /record`` writes (default: ``recordings`` beside the model library).
     prepared_models : int
         Most models kept prepared for the rig (1 to 100000; the least recently used is
         dropped beyond). A prepared model holds about 22 MB with 640 x 480 cameras (measured
@@ -102,6 +112,9 @@ class ServiceConfig:
     token: str | None = None
     threshold: Path | None = None
     prepared_models: int = 32
+    source: str | None = None
+    max_skew_ms: float = DEFAULT_MAX_SKEW_MS
+    record_dir: Path | None = None
 
     def __post_init__(self) -> None:
         if not 1 <= self.searches <= 64:
@@ -114,6 +127,8 @@ class ServiceConfig:
         if not 1 <= self.prepared_models <= 100_000:
             raise ValueError("prepared_models: expected 1 to 100000 models kept prepared, got "
                              f"{self.prepared_models}")
+        if not 0.0 <= self.max_skew_ms <= 10_000.0:
+            raise ValueError(f"max_skew_ms: expected 0 to 10000 ms, got {self.max_skew_ms:g}")
 
 
 def _png(image: NDArray[np.uint8]) -> bytes:
@@ -180,6 +195,8 @@ class CellService:
     """
 
     def __init__(self, config: ServiceConfig) -> None:
+        from photomodel.service._record import Recorder
+
         self.config = config
         self.rig: StereoRig = load_stereo(config.stereo)
         self.camera: PinholeCamera | None = None
@@ -201,6 +218,11 @@ class CellService:
         self._summaries: tuple[object, list[dict[str, Any]]] = (None, [])
         self._writing = threading.Lock()     # registrations and removals, one at a time
         self._changes = 0                    # counts the starts and ends of writes
+        self.source: SourceLink | None = None
+        self.recorder = Recorder(config.record_dir or Path(config.models).parent / "recordings",
+                                 config.stereo)
+        if config.source is not None:
+            self.attach_source(config.source)
 
     # --- warming ---------------------------------------------------------------------------
 
@@ -385,11 +407,25 @@ class CellService:
 
     # --- searches ----------------------------------------------------------------------------
 
-    def _pair(self, right: bytes, left: bytes) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+    def decode_pair(self, right: bytes, left: bytes
+                    ) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+        """The two uploaded views decoded (PNG, BMP or JPEG) as BGR (H, W, 3) uint8 and
+        checked against the calibration (InputError naming ``right`` or ``left``)."""
         right_bgr, left_bgr = decode_color_images([(right, "right"), (left, "left")])
-        self.rig.cam1.check_image(right_bgr, "right")
-        self.rig.cam2.check_image(left_bgr, "left")
+        self.check_pair(right_bgr, left_bgr)
         return right_bgr, left_bgr
+
+    def check_pair(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8]) -> None:
+        """InputError (naming ``right`` or ``left``) unless both are colour (H, W, 3) uint8
+        images of the calibration's sizes."""
+        for image, name, camera in ((right_bgr, "right", self.rig.cam1),
+                                    (left_bgr, "left", self.rig.cam2)):
+            if not (isinstance(image, np.ndarray) and image.dtype == np.uint8 and
+                    image.ndim == 3 and image.shape[2] == 3):
+                got = (f"{image.dtype} {image.shape}" if isinstance(image, np.ndarray)
+                       else type(image).__name__)
+                raise InputError(name, f"expected a colour (H, W, 3) uint8 image, got {got}")
+            camera.check_image(image, name)
 
     def _locator(self, identifier: Identifier, name: str) -> Locator:
         """Model ``name``'s prepared Locator (prepared now when not held); NotFound for a
@@ -416,16 +452,40 @@ class CellService:
 
     def locate(self, model: str, right: bytes, left: bytes, seed: int | None = None
                ) -> dict[str, Any]:
-        """``locate --json``'s object for ``model`` in the pair, plus ``id`` and
-        ``pose_stamped``."""
+        """``locate --json``'s object for ``model`` in the uploaded pair (image files), plus
+        ``id`` and ``pose_stamped``."""
+        if model not in self.identifier.entries:
+            raise NotFound("model", f"no model named {model!r}")
+        return self.locate_pair(model, *self.decode_pair(right, left), seed)
+
+    def locate_pair(self, model: str, right_bgr: NDArray[np.uint8],
+                    left_bgr: NDArray[np.uint8], seed: int | None = None, *,
+                    frame: dict[str, Any] | None = None, stamp_s: float | None = None
+                    ) -> dict[str, Any]:
+        """``locate --json``'s object for ``model`` in a pair of BGR (H, W, 3) uint8 views,
+        plus ``id`` and ``pose_stamped``; the pair is kept for the result's overlay.
+
+        Parameters
+        ----------
+        model : str
+        right_bgr, left_bgr : ndarray (H, W, 3) uint8
+            Camera 1's and camera 2's views.
+        seed : int, optional
+        frame : dict, optional
+            Fields added to the answer (a grabbed pair's ``frame_t_s``, ...).
+        stamp_s : float, optional
+            ``pose_stamped``'s stamp, unix s (default: now; a grabbed pair's time).
+        """
         identifier = self.identifier
         if model not in identifier.entries:
             raise NotFound("model", f"no model named {model!r}")
-        right_bgr, left_bgr = self._pair(right, left)
+        self.check_pair(right_bgr, left_bgr)
         locator = self._locator(identifier, model)
         result = locator(right_bgr, left_bgr, rng=seed)
         answer = result.to_json_dict()
-        answer["pose_stamped"] = pose_stamped(result.T_cam1_model, time.time())
+        answer["pose_stamped"] = pose_stamped(result.T_cam1_model,
+                                              time.time() if stamp_s is None else stamp_s)
+        answer.update(frame or {})
         caption = (f"{model}: {'found' if result.found else 'NOT found'}  score "
                    f"{result.score:.2f}  {result.seconds * 1000:.0f} ms")
         self.results.add("locate", answer, partial(_pair_png, right_bgr, left_bgr, caption,
@@ -434,10 +494,19 @@ class CellService:
         return answer
 
     def identify(self, right: bytes, left: bytes, seed: int | None = None) -> dict[str, Any]:
-        """``identify --json``'s object for the pair, plus ``id`` and ``pose_stamped``
-        (null when no model is on the table)."""
+        """``identify --json``'s object for the uploaded pair (image files), plus ``id`` and
+        ``pose_stamped`` (null when no model is on the table)."""
+        self.ready()
+        return self.identify_pair(*self.decode_pair(right, left), seed)
+
+    def identify_pair(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
+                      seed: int | None = None, *, frame: dict[str, Any] | None = None,
+                      stamp_s: float | None = None) -> dict[str, Any]:
+        """``identify --json``'s object for a pair of BGR (H, W, 3) uint8 views, plus ``id``
+        and ``pose_stamped`` (null when no model is on the table); ``frame`` and ``stamp_s``
+        as for :meth:`locate_pair`."""
         identifier = self.identifier
-        right_bgr, left_bgr = self._pair(right, left)
+        self.check_pair(right_bgr, left_bgr)
         since = self._changes
         try:
             result = identifier(right_bgr, left_bgr, rng=seed)
@@ -449,8 +518,10 @@ class CellService:
             result = identifier(right_bgr, left_bgr, rng=seed)
         answer = result.to_json_dict()
         best = result.best
-        answer["pose_stamped"] = (pose_stamped(best.T_cam1_model, time.time())
-                                  if result.found and best is not None else None)
+        answer["pose_stamped"] = (
+            pose_stamped(best.T_cam1_model, time.time() if stamp_s is None else stamp_s)
+            if result.found and best is not None else None)
+        answer.update(frame or {})
         model: PhotoModel | None = None
         A = None
         if best is not None:
@@ -465,16 +536,90 @@ class CellService:
                                                      model, A, self.rig))
         return answer
 
+    # --- the camera source ------------------------------------------------------------------
+
+    def attach_source(self, source: str | Callable[[], CameraSource]) -> None:
+        """Give the service a camera source (replacing one it has): a spec
+        (:func:`~photomodel.service._source.open_source` with this rig and
+        ``config.max_skew_ms``) or a function that opens one (called now, and again to
+        re-open it after a stop). Errors opening it reach the caller."""
+        if isinstance(source, str):
+            from photomodel.service._source import open_source
+
+            opener = partial(open_source, source, self.rig, max_skew_ms=self.config.max_skew_ms)
+        else:
+            opener = source
+        link = SourceLink(opener)
+        old, self.source = self.source, link
+        if old is not None:
+            old.close()
+
+    def grab(self) -> StereoGrab:
+        """A fresh pair from the camera source (Conflict without one; SourceError, HTTP
+        503, when it is down or refuses the pair)."""
+        link = self.source
+        if link is None:
+            raise Conflict("source", "this service has no camera source (start it with "
+                                     "--source sim, replay:DIR or opencv:R,L)")
+        return link.grab()
+
+    def _grabbed(self) -> tuple[StereoGrab, dict[str, Any]]:
+        t0 = time.perf_counter()
+        grab = self.grab()
+        link = self.source
+        frame = {"frame_t_s": grab.t_s, "frame_index": grab.index,
+                 "frame_skew_ms": grab.skew_ms, "source": link.name if link else None,
+                 "grab_seconds": time.perf_counter() - t0}
+        return grab, frame
+
+    def trigger_locate(self, model: str, seed: int | None = None) -> dict[str, Any]:
+        """:meth:`locate_pair` on a fresh pair from the camera source: the answer of
+        ``/locate`` plus ``frame_t_s`` (the pair's time, unix s; also ``pose_stamped``'s
+        stamp), ``frame_index``, ``frame_skew_ms``, ``source`` and ``grab_seconds``."""
+        if model not in self.identifier.entries:      # before grabbing: 503 or 404 first
+            raise NotFound("model", f"no model named {model!r}")
+        grab, frame = self._grabbed()
+        return self.locate_pair(model, grab.right_bgr, grab.left_bgr, seed, frame=frame,
+                                stamp_s=grab.t_s)
+
+    def trigger_identify(self, seed: int | None = None) -> dict[str, Any]:
+        """:meth:`identify_pair` on a fresh pair from the camera source, with the fields
+        :meth:`trigger_locate` adds."""
+        self.ready()
+        grab, frame = self._grabbed()
+        return self.identify_pair(grab.right_bgr, grab.left_bgr, seed, frame=frame,
+                                  stamp_s=grab.t_s)
+
+    def record(self, frames: int) -> dict[str, Any]:
+        """Write the source's next ``frames`` pairs as a recording (:class:`Recorder`);
+        Conflict without a source or while another recording runs."""
+        link = self.source
+        if link is None:
+            raise Conflict("source", "this service has no camera source to record (start it "
+                                     "with --source)")
+        return self.recorder.record(link, frames)
+
+    def close(self) -> None:
+        """Release the camera source."""
+        if self.source is not None:
+            self.source.close()
+
     def health(self) -> dict[str, Any]:
-        """``/health``'s object."""
+        """``/health``'s object; ``"status": "degraded"`` (with ``detail``) when warmed up
+        but the camera source is down, and ``source`` (its state, or null without one)."""
         from photomodel import __version__
 
         stats = self.prepared_stats()
-        return {"status": self.status, "models": self.model_count(), "version": __version__,
-                "detail": self.detail, "searches": self.searches,
+        status, detail = self.status, self.detail
+        link = self.source
+        source = None if link is None else link.health()
+        if status == "ok" and source is not None and source["state"] != "ok":
+            status, detail = "degraded", f"camera source {source['name']} {source['detail']}"
+        return {"status": status, "models": self.model_count(), "version": __version__,
+                "detail": detail, "searches": self.searches,
                 "uptime_s": round(time.time() - self.started_s, 1),
                 "prepared": 0 if stats is None else stats.prepared,
-                "prepared_max": self.config.prepared_models}
+                "prepared_max": self.config.prepared_models, "source": source}
 
 
 def _taken(name: str) -> Conflict:

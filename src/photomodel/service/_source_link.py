@@ -67,6 +67,11 @@ class SourceLink:
         self.last_error: str | None = None
 
     @property
+    def current(self) -> CameraSource | None:
+        """The source open now (None while down)."""
+        return self._source
+
+    @property
     def up(self) -> bool:
         """Whether the source is open (not stopped)."""
         return self._source is not None
