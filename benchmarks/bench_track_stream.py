@@ -51,9 +51,17 @@ cost the client and the service more than the tracking; a sender thread and a re
               reading as fast as answers come;
 ``png``       (``--encoding png|both``) the same frames as the simulator's PNG files;
 ``slow_reader`` raw frames, but the reader sleeps ``--slow-read-s`` (0.2 s) after each answer
-              while frames are being sent, then reads as fast as it can.
+              while frames are being sent, then reads as fast as it can;
+``slow_reader_credit`` the same slow reader asking for its answers (answers on demand:
+              ``/track?model=NAME&credit=1``, then ``{"credit": 1}`` from the reader thread
+              after each answer, once its sleep is over, i.e. when it is ready to read the
+              next): the service tracks the newest frame when asked and lets the others wait
+              and be dropped, instead of answering every frame into the socket buffers. Its
+              tracker then sees only the frames it answers, about ``--slow-read-s`` apart
+              (``modes`` counts how often it detected instead of tracking).
 
-Per run: frames sent, answers, errors, the last answer's ``dropped`` and ``received``, the
+Per run: frames sent, answers, errors, the last answer's ``dropped`` and ``received``,
+``credit`` (``initial`` and ``granted``; null without), the
 ``/metrics`` counters ``photomodel_track_frames_total{outcome}`` before and after (their
 difference); latency of each answered counted frame = from just before its ``send`` to the
 reader's receipt of its answer (an answer is matched to its frame by its ``t_s``), p50 / p95 /
@@ -69,16 +77,22 @@ answer), and how many answers were read meanwhile; the service's resident memory
 kept busy meanwhile (``other_cores``; above 0.2 the run is flagged ``contaminated``).
 
 Targets (``targets``: each figure, its limit and ``pass`` / ``fail``): raw p50 latency over
-the in-process median at most 2; resident memory growth over the raw run and over the slow
-reader's run under 5 %; for the slow reader, every frame accounted (answers + dropped + bad =
-sent, the answers' ``dropped`` = the ``/metrics`` difference), no backlog in the service (the
-last answer's ``received`` = frames sent, the median ``server_lag`` at most 1 frame, ``drain_s``
-at most 0.25 s) and no backlog of answers (at most 16 answers read after the last send; each
-is as old as the frame it answers, ``answer_age``). ``send_ms`` is how long the
+the in-process median at most 2; resident memory growth over the raw run and over each slow
+reader's run under 5 %; for each slow reader (``slow_reader_*``, ``slow_reader_credit_*``),
+every frame accounted (answers + dropped + bad = sent, the answers' ``dropped`` = the
+``/metrics`` difference) and no backlog in the service (the last answer's ``received`` = frames
+sent, the median ``server_lag`` at most 1 frame, ``drain_s`` at most 0.25 s); and no backlog of
+answers (``slow_reader_no_backlog_of_answers``: at most 16 answers read after the last send,
+with the age of the answers read, ``answer_age`` = ``latency_ms``, p50 and max), evaluated on
+``slow_reader_credit``: a reader that does not ask for its answers gets one per frame tracked,
+and what it has not read waits in the socket buffers, however the service drops frames; that
+run's figures are shown beside it (``without_credit``, no verdict), as the reason credit
+exists. The machine's load averages at the start and the end are in ``load_average``, and
+``--note`` keeps a note in the JSON. ``send_ms`` is how long the
 client's ``send`` of a frame took (a 1.8 MB raw frame does not fit the socket's buffer: the
 send returns once the service has read most of it).
 
-Run (about 3 minutes after the first, which renders 120 frames in about 30 s):
+Run (about 4 minutes after the first, which renders 120 frames in about 30 s):
 ``.venv/bin/python benchmarks/bench_track_stream.py`` -> ``benchmarks/results/track_stream.json``.
 Smoke: ``--quick`` (2 s runs after 1 s of warm-up, a 0.5 s sequence, raw only).
 """
@@ -372,11 +386,21 @@ class Answer:
     size: int
 
 
+GRANT = json.dumps({"credit": 1})
+"""The text message that asks ``/track`` for one more answer."""
+
+
 def _read(ws: Any, answers: list[Answer], sent: list[int], slow_read_s: float,
-          stopped: threading.Event, last_t_s: float, got_last: threading.Event) -> None:
+          stopped: threading.Event, last_t_s: float, got_last: threading.Event,
+          grants: list[int] | None = None) -> None:
     """The reader thread: every answer with its time of receipt; waits ``slow_read_s``
     after each until ``stopped`` is set (the sending ended), then reads as fast as it can;
-    sets ``got_last`` on the answer of the frame at ``last_t_s``."""
+    sets ``got_last`` on the answer of the frame at ``last_t_s``. With ``grants`` (a stream
+    opened with ``credit``) it asks for the next answer (``{"credit": 1}``, counted in
+    ``grants[0]``) once it is ready to read it: after its wait. The sender thread sends
+    frames on the same connection meanwhile: the websockets sync connection serialises whole
+    messages under its lock (only a fragmented send may not be interleaved), and ``recv`` in
+    one thread goes with ``send`` in others."""
     from websockets.exceptions import ConnectionClosed
 
     try:
@@ -389,19 +413,26 @@ def _read(ws: Any, answers: list[Answer], sent: list[int], slow_read_s: float,
                 got_last.set()
             if slow_read_s > 0 and not stopped.is_set():
                 stopped.wait(slow_read_s)
+            if grants is not None:
+                ws.send(GRANT)
+                grants[0] += 1
     except ConnectionClosed:
         pass
 
 
 def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot],
-           counted_from: int, fps: float, encoding: str, slow_read_s: float = 0.0
-           ) -> dict[str, Any]:
-    """One run: send the schedule at ``fps`` over one WebSocket, read the answers; the
+           counted_from: int, fps: float, encoding: str, slow_read_s: float = 0.0,
+           credit: int | None = None) -> dict[str, Any]:
+    """One run: send the schedule at ``fps`` over one WebSocket, read the answers (with
+    ``credit``: ask for that many at the start and one more after each answer read); the
     run's figures (see the module's docstring)."""
     import httpx
     from websockets.sync.client import connect
 
     ws_url = service.url.replace("http://", "ws://") + f"/track?model={model}"
+    if credit is not None:
+        ws_url += f"&credit={credit}"
+    grants = None if credit is None else [0]
     counters0 = track_counters(httpx.get(service.url + "/metrics", timeout=30).text)
     answers: list[Answer] = []
     sent = [0]
@@ -421,7 +452,7 @@ def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot
     with connect(ws_url, max_size=2**25, compression=None, open_timeout=60,
                  close_timeout=10) as ws:
         reader = threading.Thread(target=_read, args=(ws, answers, sent, slow_read_s, stopped,
-                                                      slots[-1].t_s, got_last),
+                                                      slots[-1].t_s, got_last, grants),
                                   name="bench-reader", daemon=True)
         reader.start()
         sampler = threading.Thread(target=sample_rss, name="bench-rss", daemon=True)
@@ -461,7 +492,9 @@ def stream(service: ServiceProcess, model: str, frames: Frames, slots: list[Slot
                              "other_cores": other_cores(
                                  None if busy0 is None or busy1 is None else busy1 - busy0,
                                  cpu_server + cpu_client, wall),
-                             "wall_s": wall})
+                             "wall_s": wall},
+                         None if credit is None else {"initial": credit,
+                                                      "granted": grants[0] if grants else 0})
 
 
 def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
@@ -469,8 +502,10 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
                   answered_last: bool, late: int, rss_start: float | None, rss_end: float,
                   rss_trace: list[tuple[float, float]], counters0: dict[str, float],
                   counters1: dict[str, float], encoding: str, slow_read_s: float,
-                  send_s: list[float], cpu: dict[str, Any]) -> dict[str, Any]:
-    """A run's figures from its raw record."""
+                  send_s: list[float], cpu: dict[str, Any],
+                  credit: dict[str, int] | None = None) -> dict[str, Any]:
+    """A run's figures from its raw record (``credit``: the answers asked for, ``initial``
+    in the query and ``granted`` one by one; None without)."""
     n = len(slots)
     tracked = [a for a in answers if "error" not in a.doc]
     errors = [a.doc["error"] for a in answers if "error" in a.doc]
@@ -493,7 +528,7 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
     after_stop = sum(1 for a in answers if a.t_recv > t_stop)
     start_t = t_send[counted_from] if counted_from < n else t0
     return {
-        "encoding": encoding, "slow_read_s": slow_read_s,
+        "encoding": encoding, "slow_read_s": slow_read_s, "credit": credit,
         "frames_sent": n, "frames_counted": n - counted_from, "late_sends": late,
         "answers": len(answers), "tracked_answers": len(tracked), "errors": len(errors),
         "error_samples": sorted(set(errors))[:5],
@@ -530,10 +565,42 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
 
 # ----------------------------------------------------------------------------- the run
 
+def _slow_reader_targets(slow: dict[str, Any], prefix: str) -> dict[str, Any]:
+    """A slow reader's targets: resident memory growth, every frame accounted and no backlog
+    in the service; their names start with ``prefix``."""
+    g = slow["rss_mib"]["growth"]
+    metrics_dropped = slow["metrics_delta"].get("dropped")
+    counted = slow["accounted"] and metrics_dropped == slow["last_dropped"]
+    d, lag = slow["drain_s"], slow["server_lag_frames"]["median"]
+    keeps_up = (slow["last_received"] == slow["frames_sent"] and lag is not None
+                and lag <= 1 and verdict(d, TARGET_DRAIN_S) == "pass")
+    return {
+        f"{prefix}_rss_growth": {"value": g, "below": TARGET_RSS_GROWTH,
+                                 "verdict": verdict(g, TARGET_RSS_GROWTH, below=True)},
+        f"{prefix}_dropped_counted": {
+            "answers": slow["tracked_answers"], "errors": slow["errors"],
+            "dropped": slow["last_dropped"], "metrics_dropped": metrics_dropped,
+            "sent": slow["frames_sent"], "verdict": "pass" if counted else "fail"},
+        f"{prefix}_no_backlog_in_service": {
+            "last_received": slow["last_received"], "sent": slow["frames_sent"],
+            "server_lag_frames_median": lag, "drain_s": d, "drain_s_max": TARGET_DRAIN_S,
+            "verdict": "pass" if keeps_up else "fail"}}
+
+
+def _answer_backlog(run: dict[str, Any]) -> dict[str, Any]:
+    """How many answers waited for a reader when the sending ended, and how old they were."""
+    return {"answers_read_after_the_last_send": run["answers_after_stop"],
+            "answer_age_p50_ms": run["latency_ms"]["p50"],
+            "answer_age_max_ms": run["latency_ms"]["max"]}
+
+
 def run_targets(result: dict[str, Any]) -> dict[str, Any]:
-    """Each target: its figure, its limit and the verdict."""
+    """Each target: its figure, its limit and the verdict. The slow readers' figures are
+    targets for both (with and without credit) but the backlog of answers, which only the
+    reader that asks for its answers (``credit``) can avoid: it is evaluated on that run, and
+    the plain slow reader's backlog is shown beside it (``without_credit``, no verdict)."""
     runs = result["runs"]
-    raw, slow = runs.get("raw"), runs.get("slow_reader")
+    raw, slow, asks = runs.get("raw"), runs.get("slow_reader"), runs.get("slow_reader_credit")
     out: dict[str, Any] = {}
     if raw is not None:
         r = result["ratios"]["raw_p50_over_in_process_p50"]
@@ -543,28 +610,16 @@ def run_targets(result: dict[str, Any]) -> dict[str, Any]:
         out["rss_growth"] = {"value": g, "below": TARGET_RSS_GROWTH,
                              "verdict": verdict(g, TARGET_RSS_GROWTH, below=True)}
     if slow is not None:
-        g = slow["rss_mib"]["growth"]
-        out["slow_reader_rss_growth"] = {"value": g, "below": TARGET_RSS_GROWTH,
-                                         "verdict": verdict(g, TARGET_RSS_GROWTH, below=True)}
-        metrics_dropped = slow["metrics_delta"].get("dropped")
-        counted = slow["accounted"] and metrics_dropped == slow["last_dropped"]
-        out["slow_reader_dropped_counted"] = {
-            "answers": slow["tracked_answers"], "errors": slow["errors"],
-            "dropped": slow["last_dropped"], "metrics_dropped": metrics_dropped,
-            "sent": slow["frames_sent"], "verdict": "pass" if counted else "fail"}
-        d, lag = slow["drain_s"], slow["server_lag_frames"]["median"]
-        keeps_up = (slow["last_received"] == slow["frames_sent"] and lag is not None
-                    and lag <= 1 and verdict(d, TARGET_DRAIN_S) == "pass")
-        out["slow_reader_no_backlog_in_service"] = {
-            "last_received": slow["last_received"], "sent": slow["frames_sent"],
-            "server_lag_frames_median": lag, "drain_s": d, "drain_s_max": TARGET_DRAIN_S,
-            "verdict": "pass" if keeps_up else "fail"}
-        queued = slow["answers_after_stop"]
+        out.update(_slow_reader_targets(slow, "slow_reader"))
+    if asks is not None:
+        out.update(_slow_reader_targets(asks, "slow_reader_credit"))
+        backlog = _answer_backlog(asks)
         out["slow_reader_no_backlog_of_answers"] = {
-            "answers_read_after_the_last_send": queued, "max": TARGET_QUEUED_ANSWERS,
-            "answer_age_p50_ms": slow["latency_ms"]["p50"],
-            "answer_age_max_ms": slow["latency_ms"]["max"],
-            "verdict": verdict(queued, TARGET_QUEUED_ANSWERS)}
+            "run": "slow_reader_credit", **backlog, "max": TARGET_QUEUED_ANSWERS,
+            "without_credit": None if slow is None else {"run": "slow_reader",
+                                                         **_answer_backlog(slow)},
+            "verdict": verdict(backlog["answers_read_after_the_last_send"],
+                               TARGET_QUEUED_ANSWERS)}
     return out
 
 
@@ -594,8 +649,17 @@ def threads() -> dict[str, Any]:
             "service": "inherits the benchmark's environment"}
 
 
+def _load_average() -> list[float] | None:
+    """The machine's 1, 5 and 15 minute load averages (None where the system has none)."""
+    try:
+        return [round(v, 2) for v in os.getloadavg()]
+    except OSError:
+        return None
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     t_start = time.perf_counter()
+    load_start = _load_average()
     meta, source = metadata("track_stream", args.seed), tracker_source()   # what is measured
     data = prepare_data(args.work, args.garment, args.kind, args.fps, args.sequence_seconds,
                         args.seed)
@@ -615,17 +679,20 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     try:
         startup_s = service.start()
         rss_ready = service.memory_mib()
-        plan = [(e, e, 0.0) for e in encodings]
+        plan: list[tuple[str, str, float, int | None]] = [(e, e, 0.0, None)
+                                                         for e in encodings]
         if args.slow_read_s > 0:
-            plan.append(("slow_reader", "raw", args.slow_read_s))
-        for label, encoding, slow in plan:
+            plan += [("slow_reader", "raw", args.slow_read_s, None),
+                     ("slow_reader_credit", "raw", args.slow_read_s, 1)]
+        for label, encoding, slow, credit in plan:
             r = stream(service, data.model_name, f, slots, counted_from, args.fps, encoding,
-                       slow)
+                       slow, credit)
             runs[label] = r
             lat = r["latency_ms"]
             _log(f"{label}: {r['answers']} answers / {r['frames_sent']} sent, dropped "
-                 f"{r['last_dropped']}, latency p50 {lat['p50']} ms p99 {lat['p99']} ms, "
-                 f"drain {r['drain_s']} s, rss {r['rss_mib']['start']} -> "
+                 f"{r['last_dropped']}, latency p50 {lat['p50']} ms p99 {lat['p99']} ms "
+                 f"max {lat['max']} ms, {r['answers_after_stop']} answers after the last "
+                 f"send, drain {r['drain_s']} s, rss {r['rss_mib']['start']} -> "
                  f"{r['rss_mib']['end']} MiB")
         rss_final = service.memory_mib()
     finally:
@@ -651,6 +718,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 track_p50 + baseline["decode_ms"][label]["p50"])
     result = {
         **meta,
+        **({"note": args.note} if args.note else {}),
         "issue": "a loopback client sending 60 frames per second for 30 s: p50 per-frame "
                  "latency at most 2x the in-process tracker's, resident memory growth under "
                  "5 %, and with a client that reads slowly, dropped frames counted and no "
@@ -662,7 +730,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                      "cycling": "the sequence is played back and forth from its middle "
                                 "frame (no jump, no reset); t_s = k / fps rising",
                      "client": "websockets sync client, compression=None, one sender and "
-                               "one reader thread, frames sent at t0 + k / fps",
+                               "one reader thread, frames sent at t0 + k / fps; "
+                               "slow_reader_credit: credit=1 in the query and {\"credit\": 1} "
+                               "sent by the reader after each answer, once its wait is over",
                      "threads": threads(), "tcp_buffers": tcp_buffers(), "targets": {
                          "p50_ratio_max": TARGET_P50_RATIO,
                          "rss_growth_below": TARGET_RSS_GROWTH,
@@ -682,6 +752,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "runs": runs,
         "ratios": ratios,
         "wall_seconds": time.perf_counter() - t_start,
+        "load_average": {"start": load_start, "end": _load_average()},
     }
     result["targets"] = run_targets(result)
     return result
@@ -698,14 +769,16 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                     help="frames as raw pixels, PNG files or a run of each (default both; "
                          "--quick raw)")
     ap.add_argument("--slow-read-s", type=float, default=0.2,
-                    help="the slow reader's sleep after each answer (default 0.2; 0: no "
-                         "slow-reader run)")
+                    help="the slow readers' sleep after each answer (default 0.2; 0: no "
+                         "slow-reader runs)")
     ap.add_argument("--garment", default="No.6", help="simulated garment (default No.6)")
     ap.add_argument("--kind", default="conveyor", help="sequence kind (default conveyor)")
     ap.add_argument("--sequence-seconds", type=float, default=None,
                     help="length of the simulated sequence that is cycled (default 2; "
                          "--quick 0.5)")
     ap.add_argument("--seed", type=int, default=0, help="simulation seed (default 0)")
+    ap.add_argument("--note", default=None,
+                    help="a note kept in the JSON (e.g. what else ran on the machine)")
     ap.add_argument("--quick", action="store_true", help="a smoke run: " + ", ".join(
         f"{k} {v}" for k, v in QUICK.items()))
     ap.add_argument("--work", type=Path, default=DEFAULT_WORK,

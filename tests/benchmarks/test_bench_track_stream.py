@@ -54,7 +54,7 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
     assert written["benchmark"] == "track_stream" and "commit" in written
     assert written["versions"] and written["settings"]["seconds"] == 2.0
     assert written["tracker"]["track_sha256"]
-    assert set(written["runs"]) == {"raw", "slow_reader"}
+    assert set(written["runs"]) == {"raw", "slow_reader", "slow_reader_credit"}
     baseline = written["in_process"]
     assert baseline["track_ms"]["p50"] > 0 and len(baseline["rounds"]) == 2
     assert baseline["track_ms"]["n"] == sum(r["track_ms"]["n"] for r in baseline["rounds"]) == 240
@@ -69,15 +69,30 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
         assert run["last_received"] == run["frames_sent"] and run["last_frame_answered"]
         assert run["rss_mib"]["start"] > 50 and run["rss_mib"]["end"] > 50
         assert run["metrics_delta"]["tracked"] == run["tracked_answers"]
-    slow = written["runs"]["slow_reader"]
+    slow, asks = written["runs"]["slow_reader"], written["runs"]["slow_reader_credit"]
+    assert slow["credit"] is None and written["runs"]["raw"]["credit"] is None
     assert slow["metrics_delta"]["dropped"] == slow["last_dropped"]
     assert slow["answers_after_stop"] > 0          # it had not read them all while sending
+    # asking for one answer at a time (however fast the loaded machine tracks): never more
+    # answers than asked for, at most one per sleep while sending, and when the sending ends
+    # at most the one asked for last and the last frame's
+    assert asks["metrics_delta"]["dropped"] == asks["last_dropped"]
+    assert asks["credit"]["initial"] == 1
+    assert asks["answers"] - 1 <= asks["credit"]["granted"] <= asks["answers"]
+    assert asks["answers"] <= 1 + 2.5 / asks["slow_read_s"] + 2
+    assert 1 <= asks["answers_after_stop"] <= 2
     targets = written["targets"]
     assert set(targets) == {"p50_ratio", "rss_growth", "slow_reader_rss_growth",
                             "slow_reader_dropped_counted", "slow_reader_no_backlog_in_service",
+                            "slow_reader_credit_rss_growth", "slow_reader_credit_dropped_counted",
+                            "slow_reader_credit_no_backlog_in_service",
                             "slow_reader_no_backlog_of_answers"}
-    assert targets["slow_reader_no_backlog_of_answers"]["answers_read_after_the_last_send"] \
-        == slow["answers_after_stop"]
+    backlog = targets["slow_reader_no_backlog_of_answers"]
+    assert backlog["run"] == "slow_reader_credit" and backlog["verdict"] == "pass"
+    assert backlog["answers_read_after_the_last_send"] == asks["answers_after_stop"]
+    assert backlog["without_credit"]["answers_read_after_the_last_send"] \
+        == slow["answers_after_stop"] and "verdict" not in backlog["without_credit"]
     assert all(t["verdict"] in ("pass", "fail") for t in targets.values())
     assert targets["slow_reader_dropped_counted"]["verdict"] == "pass"
+    assert targets["slow_reader_credit_dropped_counted"]["verdict"] == "pass"
     assert result["ratios"]["raw_p50_over_in_process_p50"] > 0
