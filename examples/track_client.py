@@ -1,12 +1,17 @@
 """Stream a stereo sequence to a photomodel cell service's /track WebSocket and print one pose
 per frame (needs the `websockets` package, which the service installs).
 
-usage: python track_client.py URL MODEL FRAMES_DIR [FPS]   (token: $PHOTOMODEL_TOKEN)
+usage: python track_client.py [--credit] URL MODEL FRAMES_DIR [FPS]   (token: $PHOTOMODEL_TOKEN)
 
 FRAMES_DIR holds one folder per frame with right.png and left.png (``photomodel simulate
 --sequences``, or ``POST /record``); frames are sent at FPS (default 30) with their times, as a
 camera would, without waiting for the answers: when the service is slower, it drops frames
 (the newest wins) and says how many.
+
+--credit: answers on demand (``/track?model=NAME&credit=1``): the service sends an answer only
+when asked, and the reader asks for the next one (``{"credit": 1}``) after each it has handled,
+so a reader slower than the camera always gets the pose of the newest frame, never a backlog of
+old answers (the frames in between are dropped and counted).
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import threading
 import time
 from pathlib import Path
 
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 
@@ -29,8 +35,10 @@ def frame_message(right: bytes, left: bytes, t_s: float) -> bytes:
     return struct.pack(">I", len(header)) + header + right + left
 
 
-def stream(url: str, model: str, frames: list[Path], fps: float) -> list[dict]:
-    """Send every frame at ``fps`` and collect the answers (one per frame tracked)."""
+def stream(url: str, model: str, frames: list[Path], fps: float,
+           credit: bool = False) -> list[dict]:
+    """Send every frame at ``fps`` and collect the answers (one per frame tracked; with
+    ``credit``, one per answer asked for)."""
     headers = {}
     if token := os.environ.get("PHOTOMODEL_TOKEN"):
         headers["Authorization"] = f"Bearer {token}"
@@ -38,7 +46,8 @@ def stream(url: str, model: str, frames: list[Path], fps: float) -> list[dict]:
     answers: list[dict] = []
     # compression=None: PNG frames do not deflate, and deflating 0.9 MB a frame takes the
     # client about 20 ms, more than a 60 fps frame's time
-    with connect(f"{ws_url}/track?model={model}", additional_headers=headers,
+    query = f"model={model}" + ("&credit=1" if credit else "")
+    with connect(f"{ws_url}/track?{query}", additional_headers=headers,
                  max_size=2**25, compression=None) as ws:
         def read() -> None:
             for text in ws:
@@ -53,6 +62,11 @@ def stream(url: str, model: str, frames: list[Path], fps: float) -> list[dict]:
                     print(f"frame {answer['frame']}: {answer['mode']} x={x:.1f} y={y:.1f} "
                           f"z={z:.1f} mm theta={answer['theta_deg']:.2f} deg "
                           f"({answer['dropped']} dropped)")
+                if credit:   # handled: ask for the next answer (send is safe from this thread)
+                    try:
+                        ws.send(json.dumps({"credit": 1}))
+                    except ConnectionClosed:    # the stream is over
+                        return
 
         reader = threading.Thread(target=read, daemon=True)
         reader.start()
@@ -69,6 +83,8 @@ def stream(url: str, model: str, frames: list[Path], fps: float) -> list[dict]:
 
 
 def main(argv: list[str]) -> int:
+    credit = "--credit" in argv
+    argv = [a for a in argv if a != "--credit"]
     if len(argv) not in (3, 4):
         print(__doc__.strip().splitlines()[2], file=sys.stderr)
         return 2
@@ -79,7 +95,8 @@ def main(argv: list[str]) -> int:
               file=sys.stderr)
         return 2
     try:
-        answers = stream(url, model, frames, float(argv[3]) if len(argv) == 4 else 30.0)
+        answers = stream(url, model, frames, float(argv[3]) if len(argv) == 4 else 30.0,
+                         credit)
     except OSError as exc:
         print(f"error: {url}: {exc}", file=sys.stderr)
         return 1

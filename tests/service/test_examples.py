@@ -202,6 +202,15 @@ def test_track_client_streams_a_sequence(service, cell_data, tmp_path) -> None:
     lines = run.stdout.splitlines()
     assert lines and lines[0].startswith("frame 0: detect x=")
     assert all(re.match(r"frame \d+: (detect|track) x=", line) for line in lines)
+    # answers on demand: the same lines, one per answer asked for
+    asked = subprocess.run([sys.executable, str(EXAMPLES / "track_client.py"), "--credit",
+                            service.url, "No.3", str(tmp_path / "seq"), "30"],
+                           capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
+    assert asked.returncode == 0 and asked.stderr == "", asked
+    lines = asked.stdout.splitlines()
+    assert lines and lines[0].startswith("frame 0: detect x=")
+    assert all(re.match(r"frame \d+: (detect|track) x=.*\((\d+) dropped\)$", line)
+               for line in lines)
     bad = subprocess.run([sys.executable, str(EXAMPLES / "track_client.py"), service.url,
                           "nope", str(tmp_path / "seq")], capture_output=True, text=True,
                          timeout=TIMEOUT_S, check=False)
