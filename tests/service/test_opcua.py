@@ -31,6 +31,7 @@ from photomodel.service._opcua import (  # noqa: E402
     OpcUaThread,
     run_opcua_in_thread,
 )
+from photomodel.service._source import SourceError  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "opcua_client.py"
 ENDPOINT = "opc.tcp://127.0.0.1:0/photomodel/"
@@ -73,8 +74,7 @@ class FakeCell:
         if model == "warming":
             raise Unavailable("service", "warming up (loading kernels)")
         if model == "camera-down":
-            source = pytest.importorskip("photomodel.service._source")
-            raise source.SourceError("replay:/data", "no frames: the folder went away")
+            raise SourceError("replay:/data", "no frames: the folder went away")
         if model == "no-source":
             raise Conflict("source", "this service has no camera source")
         if model == "boom":
@@ -208,8 +208,6 @@ def test_a_failed_call_is_bad_with_its_text_and_enters_error(face: OpcUaThread) 
 
 
 def test_a_camera_source_down_is_resource_unavailable(face: OpcUaThread) -> None:
-    pytest.importorskip("photomodel.service._source")
-
     async def body(s: Session) -> tuple[str, dict[str, Any]]:
         with pytest.raises(ua.UaStatusCodeError) as exc:
             await s.call("Locate", "camera-down")
@@ -370,16 +368,19 @@ def test_credentials_accepted_and_refused(cell: FakeCell) -> None:
                        "BadUserAccessDenied"]
 
 
-def test_a_port_in_use_is_an_error_from_start(cell: FakeCell) -> None:
+def test_a_port_in_use_is_an_error_from_start(cell: FakeCell,
+                                              caplog: pytest.LogCaptureFixture) -> None:
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
         handle = OpcUaThread(OpcUaFace(cell.locate, cell.identify,
                                        endpoint=f"opc.tcp://127.0.0.1:{port}/photomodel/"))
-        with pytest.raises(OSError):
+        with pytest.raises(OSError, match="address already in use"):
             handle.start()
         handle.stop()
+    # the caller reports it in one line: asyncua's own traceback of it is not logged
+    assert not [r for r in caplog.records if r.exc_info], caplog.text
 
 
 def test_without_asyncua_the_error_names_the_extra(monkeypatch: pytest.MonkeyPatch,

@@ -2,7 +2,7 @@
 the pose from variables (``photomodel serve --opcua PORT``; contract in docs/contracts.md,
 design in docs/method/opcua.md).
 
-The face is a thin adapter: it takes two blocking callables (the service passes
+The face is a thin adapter: it takes two blocking callables (for the service,
 ``CellService.trigger_locate`` and ``trigger_identify``, which grab a fresh stereo pair and
 answer as HTTP ``/trigger/locate`` and ``/trigger/identify`` do) and runs them one at a time
 in a worker thread, never on the server's event loop. ``asyncua`` (the ``plc`` extra) is
@@ -69,6 +69,17 @@ class State(enum.Enum):
         return self.name.capitalize()
 
 
+class _NoStartTraceback(logging.Filter):
+    """Drops asyncua's own traceback of a failed start (a port in use): the face raises the
+    error to its caller, who reports it in one line."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "error starting server" not in str(record.msg)
+
+
+_START_FILTER = _NoStartTraceback()
+
+
 def _import_asyncua() -> Any:
     try:
         import asyncua
@@ -87,7 +98,7 @@ def _import_asyncua() -> Any:
     return asyncua
 
 
-def check_endpoint(endpoint: str, token: str | None) -> tuple[str, int]:
+def _check_endpoint(endpoint: str, token: str | None) -> tuple[str, int]:
     """The host and port of ``endpoint`` (``opc.tcp://HOST:PORT/PATH``; port 0 takes a free
     one); InputError (a ValueError) for another form, and for a host that is not this machine
     only (127.0.0.0/8, ::1, ``localhost``) without a ``token``."""
@@ -134,17 +145,11 @@ def _status_of(exc: BaseException) -> tuple[int, str]:
     from asyncua import ua
 
     from photomodel.service._cell import Conflict, NotFound, Unavailable
+    from photomodel.service._source import SourceError  # a source that cannot give a pair
 
-    unavailable: tuple[type[Exception], ...] = (Unavailable,)
-    try:           # a camera source that cannot deliver a pair (HTTP 503 too)
-        from photomodel.service._source import SourceError
-    except ImportError:
-        pass
-    else:
-        unavailable = (Unavailable, SourceError)
     if isinstance(exc, NotFound):
         return ua.StatusCodes.BadNotFound, str(exc)
-    if isinstance(exc, unavailable):
+    if isinstance(exc, (Unavailable, SourceError)):
         return ua.StatusCodes.BadResourceUnavailable, str(exc)
     if isinstance(exc, Conflict):
         return ua.StatusCodes.BadInvalidState, str(exc)
@@ -217,7 +222,7 @@ class OpcUaFace:
                  token: str | None = None) -> None:
         _import_asyncua()
         self.token = _check_token(token)
-        self.host, self.port = check_endpoint(endpoint, self.token)
+        self.host, self.port = _check_endpoint(endpoint, self.token)
         self._endpoint = endpoint
         self._locate = locate
         self._identify = identify
@@ -246,6 +251,7 @@ class OpcUaFace:
         address space first)."""
         asyncua = _import_asyncua()
         ua = asyncua.ua
+        logging.getLogger("asyncua.server.server").addFilter(_START_FILTER)   # once: a set
         server = asyncua.Server(user_manager=_TokenUsers(self.token) if self.token else None)
         await server.init()
         server.set_server_name("photomodel cell")
