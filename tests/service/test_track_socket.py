@@ -209,8 +209,9 @@ def test_a_token_guards_the_stream(cell_data, tmp_path: Path) -> None:
 
 
 def test_answers_on_demand_never_pile_up_behind_a_slow_reader(service, cell_data) -> None:
-    """With ``credit=1`` the server answers only when asked: frames sent meanwhile wait (the
-    newest wins, the others are dropped), so the next answer is about the newest frame."""
+    """With ``credit=1`` the server answers only when asked: frames sent meanwhile are
+    tracked (the newest wins), only the latest answer is kept, so the next answer is about
+    the newest frame."""
     right, left = _pair(cell_data)
     sent = 10
     with _ws(service, "model=No.3&credit=1") as ws:
@@ -223,7 +224,7 @@ def test_answers_on_demand_never_pile_up_behind_a_slow_reader(service, cell_data
             ws.recv(timeout=3)                      # nothing asked for, nothing sent
         ws.send(json.dumps({"credit": 1}))
         second = _answer(ws)
-        assert second["received"] == sent and second["dropped"] == sent - 2
+        assert second["received"] == sent and second["mode"] == "track"
         assert second["t_s"] == pytest.approx((sent - 1) / 60)   # the newest frame's
         ws.send(json.dumps({"credit": 0}))
         assert "credit: expected a count from 1" in _answer(ws)["error"]

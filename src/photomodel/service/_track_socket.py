@@ -18,10 +18,12 @@ server queue frames.
 
 Answers on demand (``/track?model=NAME&credit=N``): the server then sends at most as many
 answers as the client has asked for, ``N`` at the start and ``k`` more with each text message
-``{"credit": k}``; while none is asked for, frames wait (the newest wins, the others are
-dropped). An error about a text message is answered at once and costs no credit. A client
-that reads slowly grants one answer after each it has read and so always gets the answer to
-the newest frame, never a backlog of old ones.
+``{"credit": k}``; while none is asked for, frames are still tracked (the newest wins, the
+others are dropped) and only the latest answer is kept, sent when the next one is asked for.
+An error about a text message is answered at once and costs no credit. A client that reads
+slowly grants one answer after each it has read and so always gets the answer to the newest
+frame it can, never a backlog of old ones, while the tracker sees every frame it can keep up
+with.
 """
 
 from __future__ import annotations
@@ -210,6 +212,7 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
 
         async def answer() -> None:
             nonlocal arrived
+            pending: dict[str, Any] | None = None
             while True:
                 await arrived.wait()
                 arrived = anyio.Event()
@@ -222,21 +225,21 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                 if state["reset"]:
                     state["reset"] = False
                     tracker.reset()
-                if state["credit"] is not None and state["credit"] <= 0:
-                    continue
                 frame, state["frame"] = state["frame"], None
-                if frame is None:
-                    continue
-                t0 = time.perf_counter()
-                try:
-                    out = await anyio.to_thread.run_sync(track, frame)
-                    metrics.frames.labels("tracked").inc()
-                    metrics.seconds.observe(time.perf_counter() - t0)
-                except PhotomodelError as exc:
-                    metrics.frames.labels("bad").inc()
-                    out = {"error": str(exc)}
-                if not await send(out):
-                    return
+                if frame is not None:
+                    t0 = time.perf_counter()
+                    try:
+                        pending = await anyio.to_thread.run_sync(track, frame)
+                        metrics.frames.labels("tracked").inc()
+                        metrics.seconds.observe(time.perf_counter() - t0)
+                    except PhotomodelError as exc:
+                        metrics.frames.labels("bad").inc()
+                        pending = {"error": str(exc)}
+                # with credit, the answer waits until it is asked for (a newer one replaces it)
+                if pending is not None and (state["credit"] is None or state["credit"] > 0):
+                    out, pending = pending, None
+                    if not await send(out):
+                        return
 
         async with anyio.create_task_group() as tasks:
             tasks.start_soon(receive)
