@@ -47,7 +47,7 @@ TIMEOUT_S = 300.0
 MAX_LINE_CHARS = 300
 
 GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Tracking",
-          "Options")
+          "Camera sources", "Options")
 
 # The valid files every case starts from (written by `setup`); a case replaces one of them.
 VALID = {
@@ -56,6 +56,7 @@ VALID = {
     "build": (("--photo", "photo.bmp"), ("--background", "background.bmp"),
               ("--camera", "camera.yaml"), ("--out", "out/{slug}.npz")),
     "track": (("--model", "shirt.npz"), ("--stereo", "stereo.yaml"), ("--frames", "frames")),
+    "serve": (("--stereo", "stereo.yaml"), ("--models", "lib")),
 }
 TRACK_FRAMES = ("000000", "000001", "000002")
 """The valid sequence ``frames/``: three frames, each the scene's pair."""
@@ -526,6 +527,21 @@ def _resized(name: str, size: tuple[int, int]) -> Callable[[Path], None]:
     return change
 
 
+def _videos(stem: str, *sizes: tuple[int, int]) -> Callable[[Path], None]:
+    """A ``prepare``: Motion-JPEG videos ``STEM0.avi``, ``STEM1.avi``, ... of these sizes,
+    three plain frames each."""
+
+    def prepare(work: Path) -> None:
+        for k, size in enumerate(sizes):
+            writer = cv2.VideoWriter(str(work / f"{stem}{k}.avi"),
+                                     cv2.VideoWriter_fourcc(*"MJPG"), 30.0, size)
+            for _ in range(3):
+                writer.write(np.full((size[1], size[0], 3), 120, np.uint8))
+            writer.release()
+
+    return prepare
+
+
 def _plain_views(work: Path) -> None:
     """``plain/``: three plain grey 640 x 480 views, no board in them."""
     (work / "plain").mkdir()
@@ -705,6 +721,26 @@ def cases() -> list[Case]:
               prepare=lambda w: (w / "trk_empty").mkdir()),
         _case("Tracking", "`--frames` a file", "track", "--frames", "notes.txt",
               prepare=keep_prepare, verify=keep_verify),
+        # camera sources (`photomodel serve --source`: refused before the service starts)
+        _case("Camera sources", "unknown kind", "serve", "--source", "usb:0"),
+        _case("Camera sources", "a device that does not open", "serve", "--source",
+              "opencv:97,98"),
+        _case("Camera sources", "one camera only", "serve", "--source", "opencv:0"),
+        _case("Camera sources", "a replay folder that is not there", "serve", "--source",
+              "replay:nowhere"),
+        _case("Camera sources", "views of different sizes (640 x 480 and 320 x 240 videos)",
+              "serve", "--source", "opencv:mix0.avi,mix1.avi",
+              prepare=_videos("mix", (640, 480), (320, 240))),
+        _case("Camera sources", "views of another size than the calibration's", "serve",
+              "--source", "opencv:small0.avi,small1.avi",
+              prepare=_videos("small", (320, 240), (320, 240))),
+        _case("Camera sources", "`sim` with another rig than the simulated one", "serve",
+              "--stereo", "src_rig.yaml", "--source", "sim",
+              prepare=_writes("src_rig.yaml", lambda w: _plain_stereo(w, T=[-100.0, 0, 0]))),
+        _case("Camera sources", "`sim` of an unknown garment", "serve", "--source",
+              "sim:No.99"),
+        _case("Camera sources", "a negative skew bound", "serve", "--source", "sim",
+              "--max-skew-ms", "-1"),
         # options
         _case("Options", "`--min-score` above 1", "locate", "--min-score", "2"),
         _case("Options", "negative seed", "simulate", "--out", "sim_seed", *sim, "--seed", "-1",

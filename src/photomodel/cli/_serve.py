@@ -84,7 +84,12 @@ def run(args: argparse.Namespace) -> int:
                            threshold=args.threshold_file, prepared_models=args.prepared_models,
                            source=args.source, max_skew_ms=args.max_skew_ms,
                            record_dir=args.record_dir)
-    cell = CellService(config)
+    from photomodel.service._source import SourceError
+
+    try:
+        cell = CellService(config)
+    except SourceError as exc:           # the source named as the option that gave it
+        raise InputError(f"--source {exc.source}", exc.problem) from None
 
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
