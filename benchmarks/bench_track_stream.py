@@ -79,7 +79,7 @@ kept busy meanwhile (``other_cores``; above 0.2 the run is flagged ``contaminate
 Targets (``targets``: each figure, its limit and ``pass`` / ``fail``): raw p50 latency over
 the in-process median at most 2; resident memory growth over the raw run and over each slow
 reader's run under 5 %; for each slow reader (``slow_reader_*``, ``slow_reader_credit_*``),
-every frame accounted (answers + dropped + bad = sent, the answers' ``dropped`` = the
+every frame accounted (answers + dropped + bad + superseded = sent, the answers' ``dropped`` = the
 ``/metrics`` difference) and no backlog in the service (the last answer's ``received`` = frames
 sent, the median ``server_lag`` at most 1 frame, ``drain_s`` at most 0.25 s); and no backlog of
 answers (``slow_reader_no_backlog_of_answers``: at most 16 answers read after the last send,
@@ -534,7 +534,8 @@ def summarise_run(answers: list[Answer], slots: list[Slot], t_send: list[float],
         "error_samples": sorted(set(errors))[:5],
         "last_received": last.get("received"), "last_dropped": dropped,
         "metrics_delta": diff,
-        "accounted": len(tracked) + dropped + len(errors) == n,
+        "superseded": int(last.get("superseded", 0)),
+        "accounted": len(tracked) + dropped + len(errors) + int(last.get("superseded", 0)) == n,
         "dropped_share": dropped / n,
         "latency_ms": quantiles_ms(latency),
         "send_ms": quantiles_ms(send_s),

@@ -225,6 +225,8 @@ def test_answers_on_demand_never_pile_up_behind_a_slow_reader(service, cell_data
         ws.send(json.dumps({"credit": 1}))
         second = _answer(ws)
         assert second["received"] == sent and second["mode"] == "track"
+        # every frame is accounted for: answered, dropped unseen, or tracked and superseded
+        assert 2 + second["dropped"] + second["superseded"] == sent
         assert second["t_s"] == pytest.approx((sent - 1) / 60)   # the newest frame's
         ws.send(json.dumps({"credit": 0}))
         assert "credit: expected a count from 1" in _answer(ws)["error"]

@@ -19,7 +19,8 @@ server queue frames.
 Answers on demand (``/track?model=NAME&credit=N``): the server then sends at most as many
 answers as the client has asked for, ``N`` at the start and ``k`` more with each text message
 ``{"credit": k}``; while none is asked for, frames are still tracked (the newest wins, the
-others are dropped) and only the latest answer is kept, sent when the next one is asked for.
+others are dropped) and only the latest answer is kept, sent when the next one is asked for
+(the answers then also count the ``superseded`` ones: tracked, replaced before asked for).
 An error about a text message is answered at once and costs no credit. A client that reads
 slowly grants one answer after each it has read and so always gets the answer to the newest
 frame it can, never a backlog of old ones, while the tracker sees every frame it can keep up
@@ -160,7 +161,8 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             await ws.close(code=POLICY_VIOLATION)
             return
         state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
-                                 "reset": False, "text_error": None, "credit": credit}
+                                 "reset": False, "text_error": None, "credit": credit,
+                                 "superseded": 0}
         arrived = anyio.Event()
 
         def track(message: bytes) -> dict[str, Any]:
@@ -202,6 +204,8 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             """Send one answer with the counts (spending one credit when ``spend``); False
             when the client has gone."""
             out.update(received=state["received"], dropped=state["dropped"])
+            if state["credit"] is not None:
+                out["superseded"] = state["superseded"]
             if spend and state["credit"] is not None:
                 state["credit"] -= 1
             try:
@@ -227,6 +231,8 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                     tracker.reset()
                 frame, state["frame"] = state["frame"], None
                 if frame is not None:
+                    if pending is not None:
+                        state["superseded"] += 1      # tracked, never asked for
                     t0 = time.perf_counter()
                     try:
                         pending = await anyio.to_thread.run_sync(track, frame)
