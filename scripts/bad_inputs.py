@@ -739,6 +739,8 @@ def cases() -> list[Case]:
               prepare=_writes("src_rig.yaml", lambda w: _plain_stereo(w, T=[-100.0, 0, 0]))),
         _case("Camera sources", "`sim` of an unknown garment", "serve", "--source",
               "sim:No.99"),
+        _case("Camera sources", "GenICam cameras without a GenTL producer", "serve",
+              "--source", "genicam:0,1"),
         _case("Camera sources", "a negative skew bound", "serve", "--source", "sim",
               "--max-skew-ms", "-1"),
         # options
@@ -787,6 +789,7 @@ def _environment(work: Path) -> dict[str, str]:
     threshold's) and no Python warnings filter of theirs."""
     env = dict(os.environ)
     env["PHOTOMODEL_THRESHOLD"] = str(work / "no-threshold.json")
+    env.pop("GENICAM_GENTL64_PATH", None)     # no GenTL producer of theirs either
     env.pop("PYTHONWARNINGS", None)
     return env
 

@@ -334,3 +334,81 @@ def test_a_refused_pair_leaves_the_source_open() -> None:
     assert link.up and health["state"] == "ok" and health["refused"] == 1
     assert "500.0 ms apart" in health["last_error"]
     link.close()
+
+
+# --- genicam (harvesters, with the simulated GenTL producer the genicam package ships) -------
+
+
+@pytest.mark.parametrize(("fmt", "pixel", "bgr"), [
+    ("BGR8", [1, 2, 3], [1, 2, 3]), ("RGB8", [1, 2, 3], [3, 2, 1]),
+    ("BGRa8", [1, 2, 3, 9], [1, 2, 3]), ("RGBa8", [1, 2, 3, 9], [3, 2, 1]),
+])
+def test_genicam_pixels_become_bgr(fmt: str, pixel: list[int], bgr: list[int]) -> None:
+    from photomodel.service._source_genicam import to_bgr
+
+    data = np.tile(np.array(pixel, np.uint8), 6)            # 3 x 2 pixels, row after row
+    image = to_bgr(data, 3, 2, fmt)
+    assert image.shape == (2, 3, 3) and image.dtype == np.uint8
+    assert (image == np.array(bgr, np.uint8)).all()
+    with pytest.raises(ValueError, match="expected"):
+        to_bgr(data[:-1], 3, 2, fmt)
+    with pytest.raises(ValueError, match="pixel format Mono8 is not read"):
+        to_bgr(data, 3, 2, "Mono8")
+
+
+@pytest.fixture(scope="module")
+def viky() -> Path:
+    """The genicam package's simulated GenTL producer: three 400 x 400 RGBa8 cameras at 20
+    fps ('red', 'green', 'blue': a ball of that colour bouncing on white)."""
+    pytest.importorskip("harvesters")
+    genicam = pytest.importorskip("genicam")
+    path = Path(genicam.__file__).with_name("viky.cti")
+    if not path.is_file():
+        pytest.skip("this genicam package ships no viky.cti")
+    return path
+
+
+def test_genicam_grabs_two_cameras_at_the_calibrations_size(viky: Path) -> None:
+    source = open_source(f"genicam:0,1,cti={viky}", _plain_rig(), max_skew_ms=60.0)
+    try:
+        assert source.fps == 20.0
+        assert source.describe()["kind"] == "genicam"
+        grabs = [source.grab(5.0) for _ in range(3)]
+    finally:
+        source.close()
+    for g in grabs:
+        assert g.right_bgr.shape == g.left_bgr.shape == (H, W, 3)    # set from 400 x 400
+        assert abs(g.t_s - time.time()) < 5.0 and g.skew_ms <= 60.0
+        # BGR from RGBa: camera 1 is the red camera, camera 2 the green one
+        assert g.right_bgr.reshape(-1, 3).min(0).tolist() == [0, 0, 255]
+        assert g.left_bgr.reshape(-1, 3).min(0).tolist() == [0, 255, 0]
+    assert [g.index for g in grabs] == [0, 1, 2]
+    # each grab waits for new frames (20 fps: 50 ms apart)
+    assert np.diff([g.t_right_s for g in grabs]).min() > 0.03
+
+
+def test_genicam_selects_cameras_by_id_and_refuses_what_it_cannot_open(
+        viky: Path, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    rig = _plain_rig()
+    source = open_source(f"genicam:VikyTL_DEV_blue,VikyTL_DEV_red,cti={viky}", rig,
+                         max_skew_ms=60.0)
+    try:
+        assert source.grab(5.0).right_bgr.reshape(-1, 3).min(0).tolist() == [255, 0, 0]
+    finally:
+        source.close()
+    with pytest.raises(InputError, match=r"--source: genicam: camera 2 \(left\) 'nope': no such "
+                                         r"device \(found: 0 \(VikyTL_DEV_red\)"):
+        open_source(f"genicam:0,nope,cti={viky}", rig)
+    with pytest.raises(InputError, match="the same camera"):
+        open_source(f"genicam:0,VikyTL_DEV_red,cti={viky}", rig)
+    with pytest.raises(InputError, match="expected two cameras"):
+        open_source(f"genicam:0,cti={viky}", rig)
+    with pytest.raises(InputError, match="no such file"):
+        open_source(f"genicam:0,1,cti={tmp_path / 'none.cti'}", rig)
+    monkeypatch.setenv("GENICAM_GENTL64_PATH", str(tmp_path))
+    with pytest.raises(InputError, match="no GenTL producer: give cti=PATH or set "
+                                         "GENICAM_GENTL64_PATH"):
+        open_source("genicam:0,1", rig)
+    monkeypatch.setenv("GENICAM_GENTL64_PATH", str(viky.parent))    # the standard's way
+    source = open_source("genicam:1,2", rig, max_skew_ms=60.0)
+    source.close()

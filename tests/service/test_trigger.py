@@ -264,3 +264,20 @@ def test_serve_refuses_a_source_it_cannot_open_in_one_line(capsys, cell_data, tm
     assert code == 2 and mention in err, err
     assert err.count("\n") == 1 and err.startswith("photomodel: error: ")
     assert "Traceback" not in err
+
+
+def test_a_trigger_through_two_genicam_cameras(camera_service, replay_dir) -> None:
+    """The genicam package's simulated producer (viky.cti); its free-running cameras are up
+    to a frame (50 ms) apart, so the bound is raised for them."""
+    pytest.importorskip("harvesters")
+    genicam = pytest.importorskip("genicam")
+    cti = Path(genicam.__file__).with_name("viky.cti")
+    if not cti.is_file():
+        pytest.skip("this genicam package ships no viky.cti")
+    cell = camera_service.cell
+    spec = f"genicam:VikyTL_DEV_red,VikyTL_DEV_green,cti={cti}"
+    with _source(cell, lambda: open_source(spec, cell.rig, max_skew_ms=60.0), replay_dir):
+        answer = httpx.post(f"{camera_service.url}/trigger/identify", timeout=TIMEOUT_S)
+        assert answer.status_code == 200, answer.text
+        assert answer.json()["source"] == spec and answer.json()["model"] is None
+        assert cell.health()["source"]["kind"] == "genicam"

@@ -44,8 +44,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="camera source, for POST /trigger/locate, /trigger/identify and "
                         "/record: sim[:GARMENT][,conveyor=MM_S] (the simulated hand cameras; "
                         "needs the simulated rig's --stereo), replay:DIR (recorded pairs at "
-                        "their frame rate, looping) or opencv:R,L (two cv2.VideoCapture: "
-                        "device numbers, paths, pipelines, video files); opened at start "
+                        "their frame rate, looping), opencv:R,L (two cv2.VideoCapture: "
+                        "device numbers, paths, pipelines, video files) or genicam:R,L"
+                        "[,cti=PRODUCER] (two GenICam cameras, optional extra genicam); "
+                        "opened at start "
                         "(an error stops the start), re-opened by itself after a stop")
     p.add_argument("--max-skew-ms", type=float, default=5.0,
                    help="largest time between a pair's two views, ms (default 5; a pair "

@@ -9,7 +9,9 @@ One small interface in the manner of OpenCV's ``VideoCapture`` (:class:`CameraSo
 - ``replay:DIR``: a recorded sequence or a folder of stereo pairs, at its frame rate, looping
   (:mod:`._source_replay`);
 - ``opencv:R,L``: two ``cv2.VideoCapture`` (device numbers, paths, GStreamer pipelines,
-  video files; ``;`` between two pipelines that hold commas) (:mod:`._source_opencv`).
+  video files; ``;`` between two pipelines that hold commas) (:mod:`._source_opencv`);
+- ``genicam:R,L[,cti=PRODUCER]``: two GenICam cameras through ``harvesters`` (optional
+  extra ``genicam``) (:mod:`._source_genicam`).
 
 Every pair passes the same checks (:class:`CheckedSource`): two colour views of the
 calibration's sizes whose timestamps lie at most ``max_skew_ms`` apart; otherwise a
@@ -39,7 +41,7 @@ servo's 200 mm/s belt the garment moves 1 mm in 5 ms, about the method's accurac
 MAX_SKEW_BOUND_MS = 10_000.0
 """Largest ``max_skew_ms`` taken (anything above checks nothing)."""
 
-SOURCE_KINDS = ("sim", "replay", "opencv")
+SOURCE_KINDS = ("sim", "replay", "opencv", "genicam")
 """The kinds a spec may name."""
 
 Clock = Callable[[], float]
@@ -142,13 +144,14 @@ def parse_source_spec(spec: str) -> tuple[str, str]:
         Naming ``--source``: an empty spec, an unknown kind, a kind without its arguments.
     """
     if not isinstance(spec, str) or not spec.strip():
-        raise InputError("--source", "expected a camera source: sim, replay:DIR or opencv:R,L")
+        raise InputError("--source", "expected a camera source: sim, replay:DIR, opencv:R,L "
+                                     "or genicam:R,L")
     kind, sep, args = spec.strip().partition(":")
     if kind not in SOURCE_KINDS:
         raise InputError("--source", f"unknown kind {kind!r} in {spec!r} (expected sim, "
-                                     "replay:DIR or opencv:R,L)")
+                                     "replay:DIR, opencv:R,L or genicam:R,L)")
     if kind != "sim" and not args.strip():
-        example = "replay:DIR" if kind == "replay" else "opencv:R,L"
+        example = {"replay": "replay:DIR", "opencv": "opencv:R,L"}.get(kind, "genicam:R,L")
         raise InputError("--source", f"{kind} needs its arguments: {example}")
     if kind == "sim" and sep and not args.strip():
         raise InputError("--source", "sim: expected sim, sim:GARMENT or "
@@ -163,7 +166,8 @@ def open_source(spec: str, rig: StereoRig, *, max_skew_ms: float = DEFAULT_MAX_S
     Parameters
     ----------
     spec : str
-        ``sim[:GARMENT][,conveyor=MM_S][,seed=N]``, ``replay:DIR`` or ``opencv:R,L``.
+        ``sim[:GARMENT][,conveyor=MM_S][,seed=N]``, ``replay:DIR``, ``opencv:R,L`` or
+        ``genicam:R,L[,cti=PRODUCER]``.
     rig : StereoRig
         The service's stereo calibration: every pair must have its image sizes (and the sim
         renders only the simulated hand rig).
@@ -197,6 +201,10 @@ def open_source(spec: str, rig: StereoRig, *, max_skew_ms: float = DEFAULT_MAX_S
         from photomodel.service._source_replay import ReplaySource
 
         source = ReplaySource.open(args, rig, clock=clock)
+    elif kind == "genicam":
+        from photomodel.service._source_genicam import GenICamSource
+
+        source = GenICamSource.open(args, rig, clock=clock)
     else:
         from photomodel.service._source_opencv import OpenCVSource
 
