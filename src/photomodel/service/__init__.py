@@ -12,9 +12,11 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_opcua": ["OpcUaFace", "OpcUaThread", "run_opcua_in_thread"],
         "_ros": ["pose_stamped"],
         "_server": ["ServiceThread", "serve"],
+        "_source": ["CameraSource", "SourceError", "StereoGrab", "open_source"],
     },
 )
 
-__all__ = ["CellService", "Conflict", "NotFound", "OpcUaFace", "OpcUaThread", "ServiceConfig",
-           "ServiceThread", "Unavailable", "create_app", "pose_stamped", "read_token",
-           "run_opcua_in_thread", "serve"]
+__all__ = ["CameraSource", "CellService", "Conflict", "NotFound", "OpcUaFace", "OpcUaThread",
+           "ServiceConfig", "ServiceThread", "SourceError", "StereoGrab", "Unavailable",
+           "create_app", "open_source", "pose_stamped", "read_token", "run_opcua_in_thread",
+           "serve"]
