@@ -53,10 +53,12 @@ docs: $(STAMP)
 # under $(SERVE_DIR) (delete it to start afresh); another port: `make serve PORT=8099`.
 PORT ?= 8080
 SERVE_DIR ?= build/serve
+OPCUA_PORT ?= 4840
 SERVE_GARMENTS ?= No.1,No.3,No.5
 serve: $(STAMP) | $(SERVE_DIR)/models/index.json
 	$(BIN)/photomodel serve --stereo $(SERVE_DIR)/data/stereo.yaml --models $(SERVE_DIR)/models \
-		--camera $(SERVE_DIR)/data/model_camera.yaml --port $(PORT)
+		--camera $(SERVE_DIR)/data/model_camera.yaml --port $(PORT) --source sim:No.3 \
+		--opcua $(OPCUA_PORT)
 
 $(SERVE_DIR)/data/truth.json: | $(STAMP)
 	$(BIN)/photomodel simulate --out $(SERVE_DIR)/data --garments $(SERVE_GARMENTS) --scenes 3 \

@@ -12,6 +12,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
@@ -415,3 +416,55 @@ def test_an_asyncua_older_than_2_is_named(monkeypatch: pytest.MonkeyPatch,
     monkeypatch.setattr(importlib.metadata, "version", lambda name: "1.1.8")
     with pytest.raises(ImportError, match=r"needs asyncua 2.0 or later \(found 1.1.8\)"):
         OpcUaFace(cell.locate, cell.identify)
+
+
+def test_serve_opcua_locates_from_its_camera_source(cell_data, tmp_path: Path) -> None:
+    """``photomodel serve --source replay:... --opcua PORT`` as a PLC meets it: the example
+    client's ``Locate`` grabs a pair from the source and answers with the pose."""
+    import httpx
+
+    http_port, opc_port = _free_tcp_port(), _free_tcp_port()
+    endpoint = f"opc.tcp://127.0.0.1:{opc_port}/photomodel/"
+    scene = cell_data.scene_of("No.3")
+    replay = tmp_path / "replay"
+    (replay / "000000").mkdir(parents=True)
+    for view in ("right.png", "left.png"):
+        (replay / "000000" / view).write_bytes((scene / view).read_bytes())
+    serve = subprocess.Popen(
+        [sys.executable, "-m", "photomodel", "serve", "--stereo", str(cell_data.stereo),
+         "--models", str(cell_data.library), "--port", str(http_port), "--source",
+         f"replay:{replay}", "--opcua", str(opc_port)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 180
+        while time.monotonic() < deadline:
+            assert serve.poll() is None, serve.stderr.read() if serve.stderr else ""
+            try:
+                if httpx.get(f"http://127.0.0.1:{http_port}/health").json()["status"] == "ok":
+                    break
+            except httpx.HTTPError:
+                pass
+            time.sleep(1.0)
+        ok = subprocess.run([sys.executable, str(EXAMPLE), "--endpoint", endpoint, "--model",
+                             "No.3"], capture_output=True, text=True, timeout=120, check=False)
+        assert ok.returncode == 0, ok.stderr
+        assert "found=True" in ok.stdout and "state=Ready (6)" in ok.stdout
+    finally:
+        serve.terminate()
+        serve.wait(timeout=30)
+
+
+def test_serve_refuses_a_bad_opcua_port_in_one_line(capsys, cell_data) -> None:  # type: ignore[no-untyped-def]
+    from photomodel.cli import main
+
+    code = main(["serve", "--stereo", str(cell_data.stereo), "--models",
+                 str(cell_data.library), "--opcua", "70000"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--opcua" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def _free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from photomodel.errors import InputError
 
@@ -54,6 +55,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "further apart is refused: unsynchronised cameras give wrong poses)")
     p.add_argument("--record-dir", type=Path, default=None,
                    help="where POST /record writes (default: 'recordings' beside --models)")
+    p.add_argument("--opcua", type=int, default=None, metavar="PORT",
+                   help="also serve the OPC UA face for PLCs on PORT "
+                        "(opc.tcp://HOST:PORT/photomodel/, HOST as --host; needs the 'plc' "
+                        "extra; --token-file then gives the password of user 'photomodel')")
     p.add_argument("--log-level", default="info",
                    choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(run=run)
@@ -67,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
     check_int("--max-upload-mb", args.max_upload_mb, 1, 1024)
     check_int("--results-kept", args.results_kept, 1, 1000)
     check_int("--prepared-models", args.prepared_models, 1, 100_000)
+    if args.opcua is not None:
+        check_int("--opcua", args.opcua, 1, 65535)
     if not (args.max_skew_ms >= 0 and args.max_skew_ms <= 10_000):
         raise InputError("--max-skew-ms", f"expected 0 to 10000 ms, got {args.max_skew_ms:g}")
     if args.source is not None:
@@ -101,8 +108,31 @@ def run(args: argparse.Namespace) -> int:
     if cell.source is not None:
         say(f"serve: camera source {cell.source.name} (POST /trigger/locate, "
             "/trigger/identify, /record)")
+    opcua = None
     try:
+        if args.opcua is not None:
+            opcua = _start_opcua(cell, args.host, args.opcua, token)
+            say(f"serve: OPC UA {opcua.endpoint_url} (PhotomodelVision.Locate, Identify)")
         serve(cell, args.host, args.port, progress=say, log_level=args.log_level)
     finally:
+        if opcua is not None:
+            opcua.stop()
         cell.close()
     return 0
+
+
+def _start_opcua(cell: Any, host: str, port: int, token: str | None) -> Any:
+    """The OPC UA face over ``cell``'s trigger methods, listening in its own thread."""
+    try:
+        from photomodel.service._opcua import OpcUaFace, run_opcua_in_thread
+
+        face = OpcUaFace(cell.trigger_locate, cell.trigger_identify, token=token,
+                         endpoint=f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}"
+                                  "/photomodel/")
+    except ImportError as exc:
+        raise InputError("--opcua", str(exc)) from None
+    try:
+        return run_opcua_in_thread(face)
+    except OSError as exc:
+        raise InputError("--opcua", f"cannot listen on {face.endpoint_url}: "
+                                    f"{exc.strerror or exc}") from None
