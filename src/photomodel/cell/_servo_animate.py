@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,10 +58,6 @@ def animate_servo(arm: ArmModel, rig: StereoRig, outcome: ServoOutcome,
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation
 
     p = check_animation_path(out)
@@ -76,27 +73,8 @@ def animate_servo(arm: ArmModel, rig: StereoRig, outcome: ServoOutcome,
     shape = next((t.image.shape for t in ticks if t.image is not None), (rig.cam1.height_px,
                                                                          rig.cam1.width_px, 3))
 
-    fig = plt.figure(figsize=(9.6, 4.2))
-    ax = fig.add_subplot(1, 2, 1, projection="3d")
-    draw_workspace(ax, layout)
-    ax.set_xlim(0, 1000)
-    ax.set_ylim(-750, 250)
-    ax.set_zlim(0, 800)
-    ax.view_init(elev=22, azim=-35)
-    (arm_line,) = ax.plot([], [], [], "-o", color="tab:blue", lw=3, ms=3)
-    (tool_line,) = ax.plot([], [], [], "-", color="tab:red", lw=2)
-    (cloth,) = ax.plot([], [], [], "-", color="tab:green", lw=1.5, label="garment (truth)")
-    (aim,) = ax.plot([], [], [], "--", color="tab:orange", lw=1.2, label="aimed at")
-    (path,) = ax.plot([], [], [], ":", color="0.4", lw=0.8)
-    ax.legend(loc="upper right", fontsize=7)
-    text = ax.text2D(0.02, 0.95, "", transform=ax.transAxes, fontsize=8)
-    img_ax = fig.add_subplot(1, 2, 2)
-    img_ax.set_axis_off()
-    shown = img_ax.imshow(np.zeros(shape, np.uint8))
-    (tracked,) = img_ax.plot([], [], "-", color="lime", lw=1.2)
-    caption = img_ax.set_title("camera 1", fontsize=8)
-    fig.suptitle(title or "servoed pick on a moving conveyor", fontsize=9)
-    fig.tight_layout()
+    fig, art = _figure(layout, shape, title)
+    arm_line, tool_line, cloth, aim, path, text, shown, tracked, caption = art
 
     def draw(k: int) -> tuple[object, ...]:
         tick = ticks[k]
@@ -122,6 +100,39 @@ def animate_servo(arm: ArmModel, rig: StereoRig, outcome: ServoOutcome,
         shown_ticks.append(len(ticks) - 1)
     anim = FuncAnimation(fig, draw, frames=shown_ticks, blit=False)
     return save_animation(anim, fig, p, fps, dpi)
+
+
+def _figure(layout: CellLayout, shape: tuple[int, ...], title: str
+            ) -> tuple[Any, tuple[Any, ...]]:
+    """The figure (the cell in 3D left, camera 1 right) and its artists: arm, tool, garment,
+    aim, TCP path, 3D caption, image, tracked outline, image caption."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(9.6, 4.2))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    draw_workspace(ax, layout)
+    ax.set_xlim(0, 1000)
+    ax.set_ylim(-750, 250)
+    ax.set_zlim(0, 800)
+    ax.view_init(elev=22, azim=-35)
+    (arm_line,) = ax.plot([], [], [], "-o", color="tab:blue", lw=3, ms=3)
+    (tool_line,) = ax.plot([], [], [], "-", color="tab:red", lw=2)
+    (cloth,) = ax.plot([], [], [], "-", color="tab:green", lw=1.5, label="garment (truth)")
+    (aim,) = ax.plot([], [], [], "--", color="tab:orange", lw=1.2, label="aimed at")
+    (path,) = ax.plot([], [], [], ":", color="0.4", lw=0.8)
+    ax.legend(loc="upper right", fontsize=7)
+    text = ax.text2D(0.02, 0.95, "", transform=ax.transAxes, fontsize=8)
+    img_ax = fig.add_subplot(1, 2, 2)
+    img_ax.set_axis_off()
+    shown = img_ax.imshow(np.zeros(shape, np.uint8))
+    (tracked,) = img_ax.plot([], [], "-", color="lime", lw=1.2)
+    caption = img_ax.set_title("camera 1", fontsize=8)
+    fig.suptitle(title or "servoed pick on a moving conveyor", fontsize=9)
+    fig.tight_layout()
+    return fig, (arm_line, tool_line, cloth, aim, path, text, shown, tracked, caption)
 
 
 def _tracked_outline(rig: StereoRig, T_cam1_model: NDArray[np.float64] | None,
