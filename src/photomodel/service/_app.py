@@ -107,7 +107,7 @@ def _endpoint(path: str) -> str:
     if head == "trigger" and parts[1:] in (["locate"], ["identify"]):
         return f"/trigger/{parts[1]}"
     known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static",
-             "track", "record"}
+             "track", "record", "camera"}
     return f"/{head}" if head in known else "other"
 
 

@@ -29,6 +29,7 @@ from photomodel.library import ModelLibrary, check_model_name
 from photomodel.library._library import LibraryEntry
 from photomodel.locate import Locator, draw_overlay, load_threshold
 from photomodel.model import PhotoModel, build_model
+from photomodel.service._camera_feed import CameraFeed
 from photomodel.service._results import Latencies, ResultRing
 from photomodel.service._ros import pose_stamped
 from photomodel.service._source import DEFAULT_MAX_SKEW_MS, CameraSource, StereoGrab
@@ -219,6 +220,7 @@ class CellService:
         self._writing = threading.Lock()     # registrations and removals, one at a time
         self._changes = 0                    # counts the starts and ends of writes
         self.source: SourceLink | None = None
+        self.feed = CameraFeed(self)         # the camera streams' and live view's grab loop
         self.recorder = Recorder(config.record_dir or Path(config.models).parent / "recordings",
                                  config.stereo)
         if config.source is not None:
@@ -601,6 +603,7 @@ class CellService:
 
     def close(self) -> None:
         """Release the camera source."""
+        self.feed.close()
         if self.source is not None:
             self.source.close()
 

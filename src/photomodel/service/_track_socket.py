@@ -25,10 +25,25 @@ An error about a text message is answered at once and costs no credit. A client 
 slowly grants one answer after each it has read and so always gets the answer to the newest
 frame it can, never a backlog of old ones, while the tracker sees every frame it can keep up
 with.
+
+From the service's camera (``/track?model=NAME&source=camera``): the server tracks the pairs
+of its camera source instead of frames sent by the client; one answer per tracked pair, the
+object above plus ``frame_index`` (the pair's number at its source), ``frame_t_s`` (its time,
+unix s; also the tracker's ``t_s`` and ``pose_stamped``'s stamp) and ``source`` (its name).
+``received`` counts the pairs the stream was handed, ``dropped`` those it skipped while
+tracking an earlier one (the newest wins, as above); ``credit`` and ``{"reset": true}`` work
+as above. The client sends only text messages: a binary one is answered with an error and
+ignored. The pairs come from the service's one grabbing loop
+(:class:`~photomodel.service._camera_feed.CameraFeed`), shared by every camera stream, so two
+viewers do not halve each other's frame rate. A source that stops or refuses a pair is
+answered once with ``{"error": ..., "source": NAME}`` (free of credit) and the stream waits
+for the service to re-open it; a service without a camera source refuses the stream
+(``{"error"}``, close 1008).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import struct
@@ -43,6 +58,7 @@ from prometheus_client import CollectorRegistry, Counter, Histogram
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from photomodel.errors import InputError, PhotomodelError
+from photomodel.service._source import StereoGrab
 
 __all__ = ["decode_frame", "encode_frame", "track_endpoint"]
 
@@ -156,21 +172,32 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             return
         try:
             credit = _initial_credit(ws.query_params.get("credit"))
+            camera = _camera(ws.query_params.get("source"), cell)
         except InputError as exc:
             await ws.send_json({"error": str(exc)})
             await ws.close(code=POLICY_VIOLATION)
             return
         state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
                                  "reset": False, "text_error": None, "credit": credit,
-                                 "superseded": 0}
+                                 "superseded": 0, "source_error": None}
         arrived = anyio.Event()
 
-        def track(message: bytes) -> dict[str, Any]:
-            right, left, t_s = decode_frame(message)
-            result = tracker(right, left, t_s=t_s)
+        def track(message: bytes | tuple[StereoGrab, str | None]) -> dict[str, Any]:
+            if isinstance(message, bytes):
+                right, left, t_s = decode_frame(message)
+                result = tracker(right, left, t_s=t_s)
+                stamp_s = time.time()
+            else:
+                grab, source = message
+                result = tracker(grab.right_bgr, grab.left_bgr, t_s=grab.t_s)
+                stamp_s = grab.t_s
+                cell.feed.tracked(name, grab, None if result.mode == "lost"
+                                  else result.T_cam1_model)
             answer = result.to_json_dict()
             answer["pose_stamped"] = (None if result.mode == "lost"
-                                      else pose_stamped(result.T_cam1_model, time.time()))
+                                      else pose_stamped(result.T_cam1_model, stamp_s))
+            if not isinstance(message, bytes):
+                answer.update(frame_index=grab.index, frame_t_s=grab.t_s, source=source)
             return answer
 
         async def receive() -> None:
@@ -180,7 +207,10 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                     message = await ws.receive()
                     if message["type"] == "websocket.disconnect":
                         break
-                    if message.get("bytes") is not None:
+                    if message.get("bytes") is not None and camera:
+                        state["text_error"] = ("binary message: a camera stream "
+                                               "(source=camera) takes no frames; ignored")
+                    elif message.get("bytes") is not None:
                         state["received"] += 1
                         if state["frame"] is not None:
                             state["dropped"] += 1
@@ -198,6 +228,28 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                     arrived.set()
             finally:
                 state["open"] = False
+                arrived.set()
+
+        async def pump() -> None:
+            """Hand the feed's newest pair (and its errors) to ``answer``."""
+            seen = cell.feed.state
+            if seen.error is not None:
+                state["source_error"] = seen.error
+                arrived.set()
+            while state["open"]:
+                now = await anyio.to_thread.run_sync(cell.feed.wait, seen.pairs, seen.errors,
+                                                     0.5)
+                if now.errors > seen.errors and now.error is not None:
+                    state["source_error"] = now.error
+                if now.pairs > seen.pairs and now.grab is not None:
+                    new = now.pairs - seen.pairs
+                    state["received"] += new
+                    skipped = new - 1 + (state["frame"] is not None)
+                    if skipped:
+                        state["dropped"] += skipped
+                        metrics.frames.labels("dropped").inc(skipped)
+                    state["frame"] = (now.grab, now.source)
+                seen = now
                 arrived.set()
 
         async def send(out: dict[str, Any], spend: bool = True) -> bool:
@@ -226,6 +278,11 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                     error, state["text_error"] = state["text_error"], None
                     if not await send({"error": error}, spend=False):
                         return
+                if state["source_error"] is not None:  # likewise: the source stopped
+                    error, state["source_error"] = state["source_error"], None
+                    if not await send({"error": error, "source": cell.feed.state.source},
+                                      spend=False):
+                        return
                 if state["reset"]:
                     state["reset"] = False
                     tracker.reset()
@@ -247,10 +304,15 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                     if not await send(out):
                         return
 
-        async with anyio.create_task_group() as tasks:
-            tasks.start_soon(receive)
-            await answer()
-            tasks.cancel_scope.cancel()
+        with contextlib.ExitStack() as held:
+            if camera:
+                held.enter_context(cell.feed.subscribed())
+            async with anyio.create_task_group() as tasks:
+                tasks.start_soon(receive)
+                if camera:
+                    tasks.start_soon(pump)
+                await answer()
+                tasks.cancel_scope.cancel()
 
     return endpoint
 
@@ -278,6 +340,20 @@ def _control(text: str) -> tuple[bool, int]:
                                 and 1 <= credit <= MAX_CREDIT):
         raise InputError("credit", f"expected a count from 1 to {MAX_CREDIT}, got {credit!r}")
     return bool(doc.get("reset", False)), int(credit)
+
+
+def _camera(value: str | None, cell: Any) -> bool:
+    """Whether the ``source`` query parameter asks for the service's camera (``camera``);
+    InputError for another value, or for ``camera`` on a service without a source."""
+    if value is None:
+        return False
+    if value != "camera":
+        raise InputError("source", f"expected source=camera (or none: frames sent by the "
+                                   f"client), got {value!r}")
+    if cell.source is None:
+        raise InputError("source", "this service has no camera source (start it with "
+                                   "--source sim, replay:DIR or opencv:R,L)")
+    return True
 
 
 def _initial_credit(value: str | None) -> int | None:

@@ -1,7 +1,8 @@
 """The routes of the camera source: ``POST /trigger/locate``, ``POST /trigger/identify`` (a
-fresh pair from the source, searched as ``/locate`` and ``/identify`` search an upload) and
-``POST /record?frames=N``. Thin: the work is :class:`CellService`'s (``trigger_locate``,
-``trigger_identify``, ``record``), as for every face of the service."""
+fresh pair from the source, searched as ``/locate`` and ``/identify`` search an upload),
+``POST /record?frames=N`` and the live view ``GET /camera/latest.jpg``. Thin: the work is
+:class:`CellService`'s (``trigger_locate``, ``trigger_identify``, ``record``, ``feed``), as
+for every face of the service."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from starlette.routing import Route
 
 from photomodel.errors import InputError
 from photomodel.service._app import _JSON, _drain, _field, _form, _seed, _TooLarge
-from photomodel.service._cell import CellService
+from photomodel.service._cell import CellService, Conflict, NotFound
 from photomodel.service._record import MAX_RECORD_FRAMES
 
 __all__ = ["trigger_routes"]
@@ -97,6 +98,20 @@ def trigger_routes(cell: CellService, work: Work) -> list[Route]:
         frames = _frames(await _fields(request))
         return _JSON(await anyio.to_thread.run_sync(cell.record, frames), status_code=201)
 
+    async def latest_jpeg(request: Request) -> Response:
+        model = request.query_params.get("model") or None
+        overlay = request.query_params.get("overlay", "1")
+        if overlay not in ("0", "1"):
+            raise InputError("overlay", f"expected 0 or 1, got {overlay!r}")
+        if cell.source is None:
+            raise Conflict("source", "this service has no camera source (start it with "
+                                     "--source sim, replay:DIR or opencv:R,L)")
+        if model is not None and model not in cell.identifier.entries:
+            raise NotFound("model", f"no model named {model!r}")
+        jpeg = await anyio.to_thread.run_sync(cell.feed.live_jpeg, model, overlay == "1")
+        return Response(jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
+
     return [Route("/trigger/locate", trigger_locate, methods=["POST"]),
             Route("/trigger/identify", trigger_identify, methods=["POST"]),
-            Route("/record", record, methods=["POST"])]
+            Route("/record", record, methods=["POST"]),
+            Route("/camera/latest.jpg", latest_jpeg)]
