@@ -357,6 +357,13 @@ def _source_routes(cell: CellService, work: Callable[..., Any]) -> list[Route]:
     return trigger_routes(cell, work)
 
 
+def _pair_routes(cell: CellService, work: Callable[..., Any], limit: int) -> list[Route]:
+    """``/locate`` and ``/identify`` (imported here: that module uses this one's helpers)."""
+    from photomodel.service._pair_routes import pair_routes
+
+    return pair_routes(cell, work, limit)
+
+
 def create_app(cell: CellService, *, warm: bool = True,
                progress: Callable[[str], None] | None = None) -> ASGIApp:
     """The ASGI application of ``cell`` (serve it with uvicorn).
@@ -432,17 +439,6 @@ def create_app(cell: CellService, *, warm: bool = True,
         png = await work(cell.preview_png, request.path_params["name"])
         return Response(png, media_type="image/png")
 
-    async def locate(request: Request) -> Response:
-        form = await _form(request, limit)
-        model = _field(form, "model", required=True)
-        right, left = await _file(form, "right"), await _file(form, "left")
-        return _JSON(await work(cell.locate, model, right, left, _seed(form)))
-
-    async def identify(request: Request) -> Response:
-        form = await _form(request, limit)
-        right, left = await _file(form, "right"), await _file(form, "left")
-        return _JSON(await work(cell.identify, right, left, _seed(form)))
-
     async def results(request: Request) -> Response:
         return _JSON(cell.results.recent(20))
 
@@ -505,15 +501,13 @@ def create_app(cell: CellService, *, warm: bool = True,
         Route("/models", add_model, methods=["POST"]),
         Route("/models/{name}", delete_model, methods=["DELETE"]),
         Route("/models/{name}/preview.png", preview),
-        Route("/locate", locate, methods=["POST"]),
-        Route("/identify", identify, methods=["POST"]),
         Route("/results", results),
         Route("/results/{id}", result),
         Route("/results/{id}/overlay.png", overlay),
         Route("/stats", stats),
         Route("/metrics", prometheus),
         WebSocketRoute("/track", track_endpoint(cell, metrics.registry, _finite)),
-    ] + _source_routes(cell, work)
+    ] + _pair_routes(cell, work, limit) + _source_routes(cell, work)
     app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
         PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,
         ClientDisconnect: on_disconnect, Exception: on_internal})
