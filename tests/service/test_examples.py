@@ -61,6 +61,17 @@ def test_client_prints_the_pose(service, cell_data) -> None:
     assert float(score) == pytest.approx(answer["score"], abs=0.0005 + 1e-9)
 
 
+def test_client_raw_prints_the_same_pose(service, cell_data) -> None:
+    """--raw sends the same pixels as raw BGR: the same pose as the PNG upload."""
+    scene = cell_data.scene_of("No.3")
+    png, raw = (_client(service.url, "No.3", scene, "7", *extra) for extra in ((), ("--raw",)))
+    assert png.returncode == 0 and raw.returncode == 0 and raw.stderr == "", raw
+    match_png, match_raw = (LINE.fullmatch(run.stdout.strip()) for run in (png, raw))
+    assert match_png and match_raw, raw.stdout
+    assert match_png.groups()[:6] == match_raw.groups()[:6]
+    assert match_png.group(7) != match_raw.group(7)        # two results
+
+
 @pytest.mark.parametrize(("model", "extra", "status", "mention"), [
     ("No.9", (), 404, "'No.9'"),            # not in the library
     ("No.3", ("x",), 400, "seed"),          # not a seed
