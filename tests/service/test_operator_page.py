@@ -2,9 +2,10 @@
 
 The page loads and shows the service ``ok``, the library's card with its preview, a garment
 registered through the form appears in the library (and in ``GET /models``), a bad name
-shows the service's own message without adding a card, and results posted by a client show
-up by the page's polling with their overlay images. A full-page screenshot is written to
-``build/operator_page.png`` for a person to look at.
+shows the service's own message without adding a card, results posted by a client show up
+by the page's polling with their overlay images, and the live view says there is no camera
+until the service has a source, then shows camera 1 tracking the chosen model. A full-page
+screenshot is written to ``build/operator_page.png`` for a person to look at.
 
 Skipped, saying so, only when no browser can be had: ``PHOTOMODEL_CHROMIUM`` names the
 executable (a wrong value skips rather than falling back), else ``chromium``,
@@ -15,6 +16,7 @@ executable (a wrong value skips rather than falling back), else ``chromium``,
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -219,3 +221,32 @@ def test_results_show_with_their_overlays(page: Any, service: Any, cell_data: An
     _SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
     page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=str(_SCREENSHOT), full_page=True)
+
+
+def test_live_view_shows_the_camera_with_the_tracked_model(page: Any, service: Any,
+                                                           cell_data: Any, tmp_path: Path
+                                                           ) -> None:
+    import json
+
+    from playwright.sync_api import expect
+
+    expect(page.locator("#live-status")).to_have_text("no camera")      # none yet
+    expect(page.locator("#live-none")).to_be_visible()
+    expect(page.locator("#live")).to_be_hidden()
+    sequence = tmp_path / "seq"
+    shutil.copytree(cell_data.scene_of("No.3"), sequence / "000000")
+    (sequence / "meta.json").write_text(json.dumps({"fps": 10}))
+    cell = service.cell
+    cell.attach_source(f"replay:{sequence}")
+    try:
+        expect(page.locator("#live")).to_be_visible(timeout=_POLL_TIMEOUT_MS)
+        expect(page.locator('#live-model option[value="No.3"]')).to_be_attached()
+        page.locator("#live-model").select_option("No.3")
+        expect(page.locator("#live-status")).to_contain_text("No.3: track",
+                                                             timeout=_POLL_TIMEOUT_MS)
+        expect(page.locator("#live")).to_have_attribute("src", re.compile("model=No.3"))
+        _image_loaded(page, "#live")
+        page.goto("about:blank")          # no more pictures asked for once the source goes
+    finally:
+        link, cell.source = cell.source, None
+        link.close()

@@ -1,10 +1,16 @@
-// The operator page: polls the service's JSON and draws the library, results and latency.
+// The operator page: polls the service's JSON and draws the library, results and latency;
+// the live view shows camera 1 a few times a second, tracking the chosen model over /track.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
 let shownResults = "";
 let shownModels = "";
 let serviceStatus = "connecting";
+let hasCamera = null;          // unknown until /health answers
+let liveSocket = null;         // the /track?source=camera stream of the chosen model
+let liveModel = "";
+let liveTimer = null;
+const LIVE_PERIOD_MS = 250;    // about four pictures a second
 
 async function getJSON(url) {
   const response = await fetch(url, { cache: "no-store" });
@@ -30,6 +36,7 @@ async function refreshHealth() {
   try {
     const health = await getJSON("health");
     serviceStatus = health.status;
+    updateLive(health.source !== null && health.source !== undefined);
     $("status").textContent = health.status;
     $("status").className = "badge " + health.status;
     $("detail").textContent = `${health.detail} · ${health.models} models ` +
@@ -53,6 +60,11 @@ async function refreshLibrary() {
     : "The library's models show once the service has warmed up.";
   if (key === shownModels) return;
   shownModels = key;
+  const pick = $("live-model");
+  const chosen = pick.value;
+  pick.replaceChildren(el("option", { value: "" }, "no model (camera only)"),
+    ...models.map((m) => el("option", { value: m.name }, m.name)));
+  pick.value = models.some((m) => m.name === chosen) ? chosen : "";
   const cards = models.map((m) => {
     const remove = el("button", { class: "danger", type: "button" }, "Delete");
     remove.addEventListener("click", () => deleteModel(m.name));
@@ -123,6 +135,73 @@ async function refreshLatency() {
   const stats = await getJSON("stats");
   drawLatency(stats.latency);
 }
+
+// --- the live view ----------------------------------------------------------------------------
+
+function updateLive(camera) {
+  if (camera === hasCamera) return;
+  hasCamera = camera;
+  $("live-none").hidden = camera;
+  $("live").hidden = !camera;
+  $("live-model").disabled = !camera;
+  if (camera) {
+    $("live-status").textContent = "camera 1";
+    openLiveStream();
+    if (liveTimer === null) nextPicture();
+  } else {
+    $("live-status").textContent = "no camera";
+    closeLiveStream();
+  }
+}
+
+function nextPicture() {
+  liveTimer = null;
+  if (!hasCamera) return;
+  const query = liveModel ? `?model=${encodeURIComponent(liveModel)}&overlay=1&` : "?";
+  $("live").src = `camera/latest.jpg${query}t=${Date.now()}`;
+}
+
+$("live").addEventListener("load", () => {
+  liveTimer = setTimeout(nextPicture, LIVE_PERIOD_MS);
+});
+$("live").addEventListener("error", () => {     // the source is down: try again later
+  $("live-status").textContent = "camera 1: no picture (retrying)";
+  liveTimer = setTimeout(nextPicture, 2000);
+});
+
+function closeLiveStream() {
+  if (liveSocket !== null) liveSocket.close();
+  liveSocket = null;
+}
+
+function openLiveStream() {
+  closeLiveStream();
+  liveModel = $("live-model").value;
+  if (!liveModel || !hasCamera) return;
+  const url = new URL(`track?model=${encodeURIComponent(liveModel)}&source=camera&credit=1`,
+                      location.href);
+  url.protocol = url.protocol === "https:" ? "wss:" : "ws:";
+  const socket = new WebSocket(url);
+  liveSocket = socket;
+  socket.addEventListener("message", (event) => {
+    if (socket !== liveSocket) return;
+    const answer = JSON.parse(event.data);
+    $("live-status").textContent = answer.error
+      ? `camera 1 · ${answer.error}`
+      : `camera 1 · ${liveModel}: ${answer.mode} · score ${fmt(answer.score)} · frame ${answer.frame_index}`;
+    // one answer at a time, about as often as a picture is shown
+    setTimeout(() => { if (socket.readyState === WebSocket.OPEN) socket.send('{"credit": 1}'); },
+               LIVE_PERIOD_MS);
+  });
+  socket.addEventListener("close", () => {
+    if (socket === liveSocket) {
+      liveSocket = null;
+      setTimeout(() => { if (liveSocket === null && hasCamera) openLiveStream(); }, 2000);
+    }
+  });
+}
+
+$("live-model").addEventListener("change", openLiveStream);
 
 $("register").addEventListener("submit", async (event) => {
   event.preventDefault();
