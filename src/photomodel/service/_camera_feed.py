@@ -92,8 +92,14 @@ class CameraFeed:
 
     @property
     def state(self) -> FeedState:
+        """What was published last."""
         with self._cond:
             return self._state
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called (the service is closing)."""
+        return self._closed.is_set()
 
     @property
     def running(self) -> bool:

@@ -236,7 +236,7 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
             if seen.error is not None:
                 state["source_error"] = seen.error
                 arrived.set()
-            while state["open"]:
+            while state["open"] and not cell.feed.closed:
                 now = await anyio.to_thread.run_sync(cell.feed.wait, seen.pairs, seen.errors,
                                                      0.5)
                 if now.errors > seen.errors and now.error is not None:
