@@ -253,17 +253,9 @@ class _Guard:
                 self.cell.latencies.add(f"{method} {endpoint}", status, seconds)
 
 
-async def _form(request: Request, limit: int) -> FormData:
-    """The request's multipart form, its body read up to ``limit`` bytes (413 beyond; what
-    the client still sends is read and dropped first, up to twice the bound)."""
-    size = request.headers.get("content-length")
-    if size is not None and size.isdigit() and int(size) > limit:
-        await _drain(request.receive, 2 * limit)
-        raise _TooLarge()
-    ctype = request.headers.get("content-type", "")
-    if not ctype.startswith("multipart/form-data"):
-        await _drain(request.receive, limit)
-        raise InputError("request", "expected a multipart/form-data body (files and fields)")
+async def _body(request: Request, limit: int) -> bytes:
+    """The request's body, at most ``limit`` bytes (413 beyond; the rest is read and
+    dropped first)."""
     chunks, total, more = [], 0, True
     while more:
         message = await request.receive()
@@ -276,7 +268,21 @@ async def _form(request: Request, limit: int) -> FormData:
                 await _drain(request.receive, limit)
             raise _TooLarge()
         chunks.append(chunk)
-    body = b"".join(chunks)
+    return b"".join(chunks)
+
+
+async def _form(request: Request, limit: int) -> FormData:
+    """The request's multipart form, its body read up to ``limit`` bytes (413 beyond; what
+    the client still sends is read and dropped first, up to twice the bound)."""
+    size = request.headers.get("content-length")
+    if size is not None and size.isdigit() and int(size) > limit:
+        await _drain(request.receive, 2 * limit)
+        raise _TooLarge()
+    ctype = request.headers.get("content-type", "")
+    if not ctype.startswith("multipart/form-data"):
+        await _drain(request.receive, limit)
+        raise InputError("request", "expected a multipart/form-data body (files and fields)")
+    body = await _body(request, limit)
     sent = False
 
     async def replay() -> Message:

@@ -17,10 +17,9 @@ from starlette.responses import Response
 from starlette.routing import Route
 
 from photomodel.image import decode_color_image
-from photomodel.service._app import _JSON, _drain, _field, _file, _form, _seed, _TooLarge
+from photomodel.service._app import _JSON, _body, _drain, _field, _file, _form, _seed, _TooLarge
 from photomodel.service._cell import CellService, NotFound
 from photomodel.service._pixels import npy_view, raw_layout, raw_pair, raw_view
-from photomodel.service._trigger import _body
 
 __all__ = ["pair_routes"]
 

@@ -13,12 +13,12 @@ from urllib.parse import parse_qsl
 
 import anyio.to_thread
 from starlette.datastructures import FormData
-from starlette.requests import ClientDisconnect, Request
+from starlette.requests import Request
 from starlette.responses import Response
 from starlette.routing import Route
 
 from photomodel.errors import InputError
-from photomodel.service._app import _JSON, _drain, _field, _form, _seed, _TooLarge
+from photomodel.service._app import _JSON, _body, _field, _form, _seed
 from photomodel.service._cell import CellService, Conflict, NotFound
 from photomodel.service._record import MAX_RECORD_FRAMES
 
@@ -28,24 +28,6 @@ FIELDS_LIMIT_BYTES = 64 << 10
 """Largest body a trigger takes (its fields only: the images come from the source)."""
 
 Work = Callable[..., Awaitable[Any]]
-
-
-async def _body(request: Request, limit: int) -> bytes:
-    """The request's body, at most ``limit`` bytes (413 beyond; the rest is read and
-    dropped first)."""
-    chunks, total, more = [], 0, True
-    while more:
-        message = await request.receive()
-        if message["type"] == "http.disconnect":
-            raise ClientDisconnect()
-        chunk, more = message.get("body", b""), message.get("more_body", False)
-        total += len(chunk)
-        if total > limit:
-            if more:
-                await _drain(request.receive, limit)
-            raise _TooLarge()
-        chunks.append(chunk)
-    return b"".join(chunks)
 
 
 async def _fields(request: Request) -> FormData:
