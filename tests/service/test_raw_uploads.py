@@ -68,7 +68,10 @@ def test_raw_and_npy_give_the_png_pose(service, cell_data) -> None:
     npy_parts = {n: (f"{n}.npy", _npy(im), "application/x-npy")
                  for n, im in (("right", right), ("left", left))}
     mixed = {"right": npy_parts["right"], "left": ("left.png", pngs["left"], "image/png")}
+    # PNG files sent as application/octet-stream (what many clients do) stay image files
+    png_as_octets = {n: (n, pngs[n], "application/octet-stream") for n in ("right", "left")}
     answers = [
+        _post_parts(url, "locate", png_as_octets, **model),
         _post_parts(url, "locate", raw_parts, **model, **_size(right)),
         _post_parts(url, "locate", rgb_parts, **model, **_size(right), pixel_format="rgb8"),
         _post_parts(url, "locate", npy_parts, **model),

@@ -29,19 +29,25 @@ NPY = "application/x-npy"
 _Pair = tuple[NDArray[np.uint8], NDArray[np.uint8]]
 
 
-def _kind(upload: UploadFile) -> str:
-    """``raw``, ``npy`` or ``image`` (a container OpenCV decodes) for an uploaded part."""
+def _kind(upload: UploadFile, sized: bool) -> str:
+    """``raw``, ``npy`` or ``image`` (a container OpenCV decodes) for an uploaded part.
+
+    An ``application/octet-stream`` part is raw pixels only when the form gives their size
+    (``sized``: a ``width`` or ``height`` field): many clients send every file, PNG
+    included, as ``application/octet-stream``, and those stay image files as before.
+    """
     ctype = (upload.content_type or "").split(";")[0].strip().lower()
     if ctype == NPY or (upload.filename or "").lower().endswith(".npy"):
         return "npy"
-    return "raw" if ctype == RAW else "image"
+    return "raw" if ctype == RAW and sized else "image"
 
 
 async def _parts(form: FormData) -> tuple[bytes, bytes, Callable[[], _Pair] | None]:
     """The two parts' bytes, and a function decoding them when either is raw or ``.npy``
     (None when both are image files: :meth:`CellService.decode_pair` as before)."""
     right, left = await _file(form, "right"), await _file(form, "left")
-    kinds = {name: _kind(form[name]) for name in ("right", "left")}
+    sized = _field(form, "width") is not None or _field(form, "height") is not None
+    kinds = {name: _kind(form[name], sized) for name in ("right", "left")}
     if set(kinds.values()) == {"image"}:
         return right, left, None
     fmt = _field(form, "pixel_format")
