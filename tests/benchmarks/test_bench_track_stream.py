@@ -68,7 +68,8 @@ def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
         assert run["accounted"], label                     # answered + dropped = sent
         assert run["last_received"] == run["frames_sent"] and run["last_frame_answered"]
         assert run["rss_mib"]["start"] > 50 and run["rss_mib"]["end"] > 50
-        assert run["metrics_delta"]["tracked"] == run["tracked_answers"]
+        # with credit, frames tracked while no answer was asked for are superseded, not sent
+        assert run["metrics_delta"]["tracked"] == run["tracked_answers"] + run["superseded"]
     slow, asks = written["runs"]["slow_reader"], written["runs"]["slow_reader_credit"]
     assert slow["credit"] is None and written["runs"]["raw"]["credit"] is None
     assert slow["metrics_delta"]["dropped"] == slow["last_dropped"]
