@@ -106,11 +106,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _faces import render_faces, run_faces
 from _meta import metadata
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO / "build" / "bench" / "service.json"
 DEFAULT_WORK = REPO / "build" / "bench-service"
+DEFAULT_FACES_WORK = REPO / "build" / "bench-service-faces"
 DEFAULT_GARMENTS = ("No.3", "No.5", "No.7")
 STAMP = "bench_service.stamp"
 """File that marks ``--work`` as this benchmark's (so that it may be replaced)."""
@@ -447,7 +449,7 @@ class ServiceProcess:
     """``python -m photomodel serve`` in a child process on a free loopback port."""
 
     def __init__(self, stereo: Path, library: Path, searches: int, log_path: Path,
-                 env: dict[str, str] | None = None) -> None:
+                 env: dict[str, str] | None = None, extra: Sequence[str] = ()) -> None:
         self.port = free_port()
         self.env = env
         self.url = f"http://127.0.0.1:{self.port}"
@@ -455,7 +457,7 @@ class ServiceProcess:
         self.log_path = log_path
         self.cmd = [sys.executable, "-m", "photomodel", "serve", "--stereo", str(stereo),
                     "--models", str(library), "--port", str(self.port), "--searches",
-                    str(searches), "--log-level", "warning"]
+                    str(searches), "--log-level", "warning", *extra]
         self.proc: subprocess.Popen[bytes] | None = None
 
     def start(self, timeout_s: float = 600.0) -> float:
@@ -855,6 +857,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "services": services,
     }
     result["targets"] = targets(result)
+    if args.faces:       # after the load passes: their services are stopped by now
+        result["faces"] = run_faces(args, data, base, env)
+        result["targets"].update({f"faces_{k}": v for k, v in
+                                  result["faces"]["targets"].items()})
     meta["loadavg_after"] = _loadavg()
     return result
 
@@ -1004,7 +1010,27 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                     help=f"data directory (replaced; default {DEFAULT_WORK.relative_to(REPO)})")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
                     help=f"JSON output (default {DEFAULT_OUT.relative_to(REPO)})")
+    ap.add_argument("--faces", action=argparse.BooleanOptionalAction, default=True,
+                    help="also measure the trigger path, raw uploads, OPC UA and a camera "
+                         "stream (benchmarks/_faces.py; default on)")
+    ap.add_argument("--faces-model", default=None,
+                    help="garment of the trigger service's replay (default: the first)")
+    ap.add_argument("--faces-requests", type=int, default=None,
+                    help="requests per faces row (default 200; --quick 10)")
+    ap.add_argument("--faces-work", type=Path, default=DEFAULT_FACES_WORK,
+                    help="the stream's rendered sequence (kept and reused; default "
+                         f"{DEFAULT_FACES_WORK.relative_to(REPO)})")
+    ap.add_argument("--stream-seconds", type=float, default=None,
+                    help="seconds of the camera stream counted (default 60; --quick 3)")
+    ap.add_argument("--stream-sequence-s", type=float, default=2.0,
+                    help="length of the rendered conveyor sequence, s (default 2)")
+    ap.add_argument("--stream-warmup-s", type=float, default=5.0,
+                    help="seconds of the camera stream before counting (default 5)")
     args = ap.parse_args(argv)
+    if args.faces_requests is None:
+        args.faces_requests = 10 if args.quick else 200
+    if args.stream_seconds is None:
+        args.stream_seconds = 3.0 if args.quick else 60.0
     if args.requests is None:
         args.requests = QUICK_REQUESTS if args.quick else 500
     if args.baseline_calls is None:
@@ -1024,6 +1050,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     result = run(args)
     args.out.write_text(json.dumps(finite(result), indent=1, allow_nan=False) + "\n")
     print(render_table(result))
+    if "faces" in result:
+        print(render_faces(result["faces"]))
     print(f"wrote {args.out}")
     return result
 

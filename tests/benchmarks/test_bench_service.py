@@ -13,6 +13,7 @@ import pytest
 from benchmark_helpers import load_benchmark
 
 load_benchmark("_meta")
+load_benchmark("_faces")
 bench_service = load_benchmark("bench_service")
 
 
@@ -208,10 +209,38 @@ def _check_run(result: dict, out: Path, searches: list[int], clients: list[int],
 def test_a_short_run_against_a_service_process(tmp_path: Path) -> None:
     out = tmp_path / "out" / "service.json"
     result = bench_service.main(["--quick", "--requests", "3", "--clients", "1", "--searches",
-                                 "2", "--garments", "No.3", "--scenes", "2",
+                                 "2", "--garments", "No.3", "--scenes", "2", "--no-faces",
                                  "--work", str(tmp_path / "work"), "--out", str(out)])
     _check_run(result, out, [2], [1], 3)
     assert (out.parent / "service-2.log").is_file()
+    assert "faces" not in result
+
+
+def test_the_faces_against_a_service_with_a_source_and_opc_ua(tmp_path: Path) -> None:
+    """The trigger, raw and PNG uploads, OPC UA and a camera stream, each beside in-process."""
+    pytest.importorskip("asyncua")
+    load_benchmark("bench_track")
+    load_benchmark("bench_track_stream")
+    out = tmp_path / "out" / "service.json"
+    result = bench_service.main([
+        "--quick", "--requests", "1", "--clients", "1", "--searches", "2", "--garments",
+        "No.3", "--scenes", "2", "--faces-requests", "4", "--stream-seconds", "1",
+        "--stream-warmup-s", "0.5", "--stream-sequence-s", "0.25",
+        "--faces-work", str(tmp_path / "faces"), "--work", str(tmp_path / "work"),
+        "--out", str(out)])
+    faces = result["faces"]
+    for row in ("trigger", "raw", "png"):
+        assert faces[row]["errors"] == [] and faces[row]["pose_max_abs_diff"] == 0.0
+        assert faces[row]["in_process_ms"]["n"] == 4
+    assert faces["trigger"]["grab_ms"]["n"] == 4 and faces["trigger"]["frames_seen"] == 4
+    assert faces["opcua"]["errors"] == [] and faces["opcua"]["round_trip_ms"]["n"] == 4
+    assert faces["opcua"]["position_diff_mm_max"] < 5.0
+    stream = faces["stream"]
+    assert stream["answers"] > 0 and stream["errors"] == [] and stream["rss_growth"] is not None
+    assert set(faces["targets"]) == {"trigger_p50", "raw_p50", "opcua_p50", "stream_no_drop",
+                                     "stream_memory"}
+    assert all(t["verdict"] in ("pass", "fail") for t in faces["targets"].values())
+    assert json.loads(out.read_text())["faces"]["model"] == "No.3"
 
 
 @pytest.mark.slow

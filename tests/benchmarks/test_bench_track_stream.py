@@ -10,6 +10,7 @@ import pytest
 from benchmark_helpers import load_benchmark
 
 load_benchmark("_meta")
+load_benchmark("_faces")
 load_benchmark("bench_service")
 load_benchmark("bench_track")
 bench = load_benchmark("bench_track_stream")

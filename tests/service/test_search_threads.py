@@ -76,3 +76,22 @@ def test_a_cancelled_request_frees_the_primary_thread_when_its_call_ends() -> No
 
     name, state = asyncio.run(main())
     assert state == "cancelled" and name.startswith("photomodel-search_")
+
+
+def test_a_thread_that_is_no_event_loop_runs_its_calls_on_the_same_primary_thread() -> None:
+    """The OPC UA face's worker calls in: its searches share the HTTP side's OpenMP team."""
+    threads = SearchThreads()
+    try:
+        async def on_loop() -> str:
+            return (await threads.run(_where))[0]
+
+        from_loop = asyncio.run(on_loop())
+        seen: list[str] = []
+        worker = threading.Thread(target=lambda: seen.append(threads.call(_where)[0]))
+        worker.start()
+        worker.join(10)
+        assert seen == [from_loop] and from_loop.startswith("photomodel-search_")
+    finally:
+        threads.close()
+    assert threads.call(_where)[0].startswith("photomodel-search_")   # made again after close
+    threads.close()

@@ -77,7 +77,7 @@ class _Stub:
         self.closed = False
         self.stop = False
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         if self.stop:
             raise SourceError(self.name, "unplugged")
         grab = self.make(self.index)
@@ -212,6 +212,39 @@ def test_a_removed_replay_folder_stops_the_source(tmp_path: Path) -> None:
     with pytest.raises(SourceError, match="cannot be read") as caught:
         source.grab(1.0)
     assert caught.value.stopped
+
+
+def test_a_streaming_grab_hands_over_what_a_late_reader_missed(tmp_path: Path) -> None:
+    """``newest=False`` takes the oldest frame not given yet among the last BUFFERS (a driver's
+    queue); the default takes the newest, as a trigger wants."""
+    from photomodel.service._source_replay import BUFFERS, ReplaySource
+
+    _write_pairs(tmp_path / "seq", 3, {"fps": 10.0})
+    now = [1000.0]
+    source = ReplaySource.open(str(tmp_path / "seq"), _plain_rig(), clock=lambda: now[0])
+    assert source.grab(1.0).index == 0
+    now[0] += 0.45                                      # frames 1 to 4 exposed meanwhile
+    assert [source.grab(1.0, newest=False).index for _ in range(4)] == [1, 2, 3, 4]
+    now[0] += 0.3
+    assert source.grab(1.0).index == 7                  # a trigger: the newest
+    now[0] += 2.0                                       # 20 frames: more than the buffers
+    assert source.grab(1.0, newest=False).index == 27 - BUFFERS + 1
+
+
+def test_replay_decodes_a_pair_once_and_again_when_its_file_changes(tmp_path: Path) -> None:
+    _write_pairs(tmp_path / "seq", 2, {"fps": 1000.0})
+    source = open_source(f"replay:{tmp_path / 'seq'}", _plain_rig())
+    first = [source.grab(1.0) for _ in range(4)]
+    again = {g.index % 2: g.right_bgr for g in first}
+    kept = [g for g in first if g.index % 2 == first[0].index % 2]
+    assert kept[0].right_bgr is kept[1].right_bgr           # decoded once, shared
+    assert not kept[0].right_bgr.flags.writeable            # so nobody may draw on it
+    time.sleep(0.01)
+    cv2.imwrite(str(tmp_path / "seq" / "000000" / "right.png"), _image(200))
+    later = [source.grab(1.0) for _ in range(2)]
+    changed = next(g for g in later if g.index % 2 == 0)
+    assert changed.right_bgr is not again[0]
+    assert int(round(changed.right_bgr[:, W // 8:, 0].mean())) == 200
 
 
 # --- opencv ----------------------------------------------------------------------------------

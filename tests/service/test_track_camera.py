@@ -162,3 +162,17 @@ def test_without_a_source_the_stream_is_refused(camera_service) -> None:
         cell.source = link
     with _ws(camera_service, "model=No.3&source=usb") as ws:
         assert "source=camera" in _answer(ws)["error"]
+
+
+def test_the_feed_hands_a_late_stream_the_pairs_it_still_keeps() -> None:
+    from photomodel.service._camera_feed import FeedState
+    from photomodel.service._source import StereoGrab
+
+    view = np.zeros((2, 2, 3), np.uint8)
+    grabs = tuple(StereoGrab(view, view, float(k), float(k), k) for k in (7, 8, 9))
+    state = FeedState(10, grabs[-1], 0, None, "replay:x", grabs)   # pairs 8, 9 and 10
+    assert state.since(10) == ([], 0)
+    kept, lost = state.since(8)
+    assert [g.index for g in kept] == [8, 9] and lost == 0
+    kept, lost = state.since(5)                                     # 6 and 7 are gone
+    assert [g.index for g in kept] == [7, 8, 9] and lost == 2

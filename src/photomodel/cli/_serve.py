@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -126,7 +127,13 @@ def _start_opcua(cell: Any, host: str, port: int, token: str | None) -> Any:
     try:
         from photomodel.service._opcua import OpcUaFace, run_opcua_in_thread
 
-        face = OpcUaFace(cell.trigger_locate, cell.trigger_identify, token=token,
+        def locate(model: str) -> dict[str, Any]:   # on the searches' threads: one team
+            return cell.threads.call(partial(cell.trigger_locate, model))
+
+        def identify() -> dict[str, Any]:
+            return cell.threads.call(cell.trigger_identify)
+
+        face = OpcUaFace(locate, identify, token=token,
                          endpoint=f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}"
                                   "/photomodel/")
     except ImportError as exc:

@@ -34,7 +34,6 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
 from photomodel.service._source import SourceError
-from photomodel.service._threads import SearchThreads
 from photomodel.service._track_socket import track_endpoint
 
 __all__ = ["create_app"]
@@ -393,11 +392,9 @@ def create_app(cell: CellService, *, warm: bool = True,
         async with limiter:
             metrics.in_flight.inc()
             try:
-                return await threads.run(lambda: fn(*args, **kwargs))
+                return await cell.threads.run(lambda: fn(*args, **kwargs))
             finally:
                 metrics.in_flight.dec()
-
-    threads = SearchThreads()
 
     # the searches are bounded by ``limiter`` above; the thread pool itself must not be
     limiter_unbounded = anyio.CapacityLimiter(64)
@@ -497,7 +494,7 @@ def create_app(cell: CellService, *, warm: bool = True,
         try:
             yield
         finally:
-            threads.close()
+            cell.threads.close()
 
     routes = [
         Route("/", index),

@@ -7,7 +7,10 @@ between them and each see half the rate. The loop runs in a thread of its own wh
 is subscribed (or the live view was asked for a picture within :data:`IDLE_S`), grabs from
 whatever source the service holds at the time (:attr:`CellService.source`, re-opened by the
 service after a stop) and publishes each pair, or the reason there is none, to every
-waiting subscriber; a subscriber slower than the source skips to the newest pair.
+waiting subscriber. The loop grabs the newest pair first, then oldest first
+(``grab(newest=False)``: a source with buffers hands over what queued while the loop was
+late) and keeps the last :data:`RECENT` pairs, so that a stream late for a moment tracks
+every pair; a subscriber further behind skips to the oldest pair kept.
 """
 
 from __future__ import annotations
@@ -35,6 +38,9 @@ RETRY_S = 0.25
 """Wait between two grabs while the source is down or refuses pairs, s (the service re-opens
 a stopped source by itself; this only keeps the loop from spinning)."""
 
+RECENT = 8
+"""Pairs the feed keeps for streams that fall behind (about 0.13 s at 60 fps)."""
+
 LIVE_WIDTH_PX = 640
 """Largest width of the live view's JPEG, pixels (larger views are scaled down)."""
 
@@ -59,6 +65,9 @@ class FeedState:
         The newest error, None once a pair was grabbed after it.
     source : str or None
         The name of the source ``grab`` came from.
+    recent : tuple of StereoGrab
+        The last :data:`RECENT` pairs, oldest first (``grab`` last): pair number
+        ``pairs - len(recent) + 1 + i`` is ``recent[i]``.
     """
 
     pairs: int
@@ -66,6 +75,14 @@ class FeedState:
     errors: int
     error: str | None
     source: str | None = None
+    recent: tuple[StereoGrab, ...] = ()
+
+    def since(self, pairs: int) -> tuple[list[StereoGrab], int]:
+        """The pairs after pair number ``pairs`` that are still kept, oldest first, and how
+        many after it are no longer kept."""
+        new = max(0, self.pairs - pairs)
+        kept = list(self.recent[len(self.recent) - min(new, len(self.recent)):]) if new else []
+        return kept, new - len(kept)
 
 
 class CameraFeed:
@@ -148,6 +165,7 @@ class CameraFeed:
             self._thread.start()
 
     def _run(self) -> None:
+        fresh = True        # the first pair of a run (and after an outage): the newest
         while True:
             with self._cond:
                 if self._closed.is_set() or (self._users == 0
@@ -159,14 +177,17 @@ class CameraFeed:
                 if link is None:
                     raise SourceError("source", "this service has no camera source (start it "
                                                 "with --source sim, replay:DIR or opencv:R,L)")
-                grab = link.grab()
+                grab = link.grab(newest=fresh)
             except PhotomodelError as exc:
+                fresh = True
                 self._publish_error(str(exc))
                 self._closed.wait(RETRY_S)
                 continue
+            fresh = False
             with self._cond:
                 s = self._state
-                self._state = FeedState(s.pairs + 1, grab, s.errors, None, link.name)
+                self._state = FeedState(s.pairs + 1, grab, s.errors, None, link.name,
+                                        (*s.recent, grab)[-RECENT:])
                 self._cond.notify_all()
 
     def _publish_error(self, message: str) -> None:
@@ -174,7 +195,8 @@ class CameraFeed:
             s = self._state
             if s.error == message:          # the same outage: said once
                 return
-            self._state = FeedState(s.pairs, s.grab, s.errors + 1, message, s.source)
+            self._state = FeedState(s.pairs, s.grab, s.errors + 1, message, s.source,
+                                    s.recent)
             self._cond.notify_all()
 
     # --- the live view ------------------------------------------------------------------------

@@ -34,6 +34,7 @@ from photomodel.service._results import Latencies, ResultRing
 from photomodel.service._ros import pose_stamped
 from photomodel.service._source import DEFAULT_MAX_SKEW_MS, CameraSource, StereoGrab
 from photomodel.service._source_link import SourceLink
+from photomodel.service._threads import SearchThreads
 
 __all__ = ["EAGER_PREPARED", "CellService", "Conflict", "NotFound", "ServiceConfig",
            "Unavailable", "read_token"]
@@ -219,6 +220,7 @@ class CellService:
         self._summaries: tuple[object, list[dict[str, Any]]] = (None, [])
         self._writing = threading.Lock()     # registrations and removals, one at a time
         self._changes = 0                    # counts the starts and ends of writes
+        self.threads = SearchThreads()       # every face's searches: one OpenMP team
         self.source: SourceLink | None = None
         self.feed = CameraFeed(self)         # the camera streams' and live view's grab loop
         self.recorder = Recorder(config.record_dir or Path(config.models).parent / "recordings",

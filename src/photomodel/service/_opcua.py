@@ -348,8 +348,13 @@ class OpcUaFace:
                  "PositionMm": ua.VariantType.Double, "QuatWxyz": ua.VariantType.Double,
                  "ThetaDeg": ua.VariantType.Double, "Score": ua.VariantType.Double,
                  "Timestamp": ua.VariantType.DateTime, "ResultId": ua.VariantType.String}
-        for name, value in values.items():
-            await self._nodes[name].write_value(ua.Variant(value, types[name]))
+        assert self._server is not None
+        now = datetime.now(UTC)
+        for name, value in values.items():    # the server's own write: no session checks
+            await self._server.write_attribute_value(
+                self._nodes[name].nodeid,
+                ua.DataValue(ua.Variant(value, types[name]), SourceTimestamp=now,
+                             ServerTimestamp=now))
 
     async def _enter(self, state: State, error_text: str = "") -> None:
         self.state = state

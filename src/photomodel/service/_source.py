@@ -121,9 +121,15 @@ class CameraSource(Protocol):
     name: str
     fps: float | None
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         """The next pair, taken after the call began (waits at most about ``timeout_s``);
-        :class:`SourceError` when none can be had."""
+        :class:`SourceError` when none can be had.
+
+        ``newest``: the newest frame (a trigger; GenICam's ``NewestOnly`` buffer handling);
+        False: the oldest frame not given yet that the source still holds in its buffers (a
+        stream; ``OldestFirst``), so that a reader late for a moment loses no frame. A
+        source without buffers (the sim, OpenCV's capture) takes a pair when asked either
+        way."""
         ...
 
     def close(self) -> None:
@@ -232,8 +238,8 @@ class CheckedSource:
         self.name = source.name
         self.fps = source.fps
 
-    def grab(self, timeout_s: float) -> StereoGrab:
-        grab = self.source.grab(timeout_s)
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
+        grab = self.source.grab(timeout_s, newest=newest)
         self.check(grab)
         return grab
 

@@ -243,7 +243,7 @@ class GenICamSource:
             raise
         return cls(name, harvester, (cameras[0], cameras[1]), clock)
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         waits = [self._waiters.submit(c.next_frame, self.name, timeout_s, self._clock)
                  for c in self._cameras]
         (right, t_right), (left, t_left) = (w.result() for w in waits)

@@ -76,16 +76,16 @@ class SourceLink:
         """Whether the source is open (not stopped)."""
         return self._source is not None
 
-    def grab(self, timeout_s: float = GRAB_TIMEOUT_S) -> StereoGrab:
+    def grab(self, timeout_s: float = GRAB_TIMEOUT_S, *, newest: bool = True) -> StereoGrab:
         """A fresh pair (:class:`SourceError` when the source is down, stops now, or
-        refuses the pair)."""
+        refuses the pair); ``newest`` as for :meth:`CameraSource.grab`."""
         with self._grab_lock:
             with self._lock:
                 source = self._source
                 if source is None:
                     raise SourceError(self.name, self.detail)
             try:
-                grab = source.grab(timeout_s)
+                grab = source.grab(timeout_s, newest=newest)
             except SourceError as exc:
                 if exc.stopped:
                     self._down(source, exc.problem)

@@ -160,7 +160,7 @@ class OpenCVSource:
                 raise SourceError(self.name, f"{which} gives {w}x{h} px but the calibration "
                                              f"is for {camera.width_px}x{camera.height_px} px")
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         """Grab both, then retrieve both (the timeout is the drivers'; OpenCV has none)."""
         stamps = []
         for camera in self._cameras:

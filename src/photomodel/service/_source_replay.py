@@ -5,10 +5,16 @@
 or a dataset (``DIR/scenes/<id>/right.png, left.png``); frames in name order. The frame rate
 is the folder's ``fps``, else 30.
 
+Decoded pairs are kept (up to :data:`CACHE_BYTES`, the first ones of the loop; a pair is
+known by its two files' real paths, sizes and modification times), so that a loop is decoded
+once, as a camera hands over pixels without decoding; a file that changes is read again.
+
 The replay runs on the source's clock like a free-running camera: frame ``k`` (of the loop
 that never ends) is exposed at ``t0 + k / fps``; a grab answers the newest frame not given
 yet, waiting for the next one when the newest was given already, so a slow reader skips
-frames as it would with a camera. Views are read from disk at each grab: a folder removed
+frames as it would with a camera. A streaming grab (``newest=False``) answers the oldest
+frame not given yet among the last :data:`BUFFERS`, as a camera's driver hands over its
+queued buffers. Views are read from disk at each grab: a folder removed
 while the service runs stops the source (:class:`SourceError`), and the service re-opens it
 when it is back.
 """
@@ -29,6 +35,12 @@ __all__ = ["DEFAULT_FPS", "ReplaySource", "replay_frames"]
 
 DEFAULT_FPS = 30.0
 """Frame rate of a folder that gives none."""
+
+BUFFERS = 8
+"""Frames a streaming grab may fall behind before frames are lost (a driver's buffer count)."""
+
+CACHE_BYTES = 256 << 20
+"""Most bytes of decoded pairs a replay keeps (about 140 VGA pairs)."""
 
 TIMING_FILES = ("meta.json", "truth.json")
 _MAX_TIMING_BYTES = 64 << 20
@@ -109,6 +121,8 @@ class ReplaySource:
         self._clock = clock
         self._t0_s = clock()
         self._last = -1
+        self._cache: dict[tuple[Any, ...], tuple[Any, Any]] = {}
+        self._cached_bytes = 0
 
     @classmethod
     def open(cls, args: str, rig: StereoRig, *, clock: Clock) -> ReplaySource:
@@ -129,7 +143,13 @@ class ReplaySource:
         from photomodel.image import decode_color_images
 
         try:
-            data = [(folder / view).read_bytes() for view in ("right.png", "left.png")]
+            paths = [(folder / view).resolve(strict=True) for view in ("right.png", "left.png")]
+            stats = [path.stat() for path in paths]
+            key = tuple((str(path), st.st_size, st.st_mtime_ns)
+                        for path, st in zip(paths, stats, strict=True))
+            if (held := self._cache.get(key)) is not None:
+                return held
+            data = [path.read_bytes() for path in paths]
         except OSError as exc:
             raise SourceError(self.name, f"pair {folder.name}: cannot be read "
                                          f"({exc.strerror}): folder removed?") from None
@@ -139,12 +159,18 @@ class ReplaySource:
         except InputError as exc:
             # a damaged file: this pair is refused, the replay goes on
             raise SourceError(self.name, f"pair {folder.name}: {exc}", stopped=False) from None
+        size = right.nbytes + left.nbytes
+        if self._cached_bytes + size <= CACHE_BYTES:
+            right.flags.writeable = left.flags.writeable = False    # shared by every grab
+            self._cache[key] = (right, left)
+            self._cached_bytes += size
         return right, left
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         fps = self.fps or DEFAULT_FPS
         now = self._clock()
-        index = max(math.floor((now - self._t0_s) * fps), self._last + 1)
+        exposed = math.floor((now - self._t0_s) * fps)
+        index = max(exposed if newest else exposed - BUFFERS + 1, self._last + 1)
         due_s = self._t0_s + index / fps
         wait_s = due_s - now
         if wait_s > timeout_s:

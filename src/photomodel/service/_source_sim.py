@@ -154,7 +154,7 @@ class SimSource:
             self._stills.append(made)
         return made
 
-    def grab(self, timeout_s: float) -> StereoGrab:
+    def grab(self, timeout_s: float, *, newest: bool = True) -> StereoGrab:
         now = self._clock()
         elapsed = max(0.0, now - self._t0_s)
         loop_s = LOOP_MM / self.conveyor_mm_s if self.conveyor_mm_s else math.inf

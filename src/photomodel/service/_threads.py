@@ -71,36 +71,57 @@ class _ExtraThreads:
 
 
 class SearchThreads:
-    """Runs blocking calls (searches, registrations) off the event loop (module docstring).
+    """Runs blocking calls (searches, registrations, tracked frames) off the event loop and
+    off the OPC UA face's thread (module docstring); one per service
+    (:attr:`CellService.threads`), so that every face shares the one OpenMP team.
 
     How many run at once is bounded by the caller (the service's limiter); this class only
-    chooses the thread.
+    chooses the thread. Safe to call from any thread.
     """
 
     def __init__(self) -> None:
-        self._primary = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search")
+        self._lock = threading.Lock()
+        self._primary: ThreadPoolExecutor | None = None
         self._primary_busy = False
         self._extra = _ExtraThreads(EXTRA_IDLE_S)
 
-    async def run(self, call: Callable[[], T]) -> T:
-        """``call()`` in a search thread; its result (or its exception)."""
-        loop = asyncio.get_running_loop()
-        if self._primary_busy:
-            return await asyncio.wrap_future(self._extra.submit(call))
-        self._primary_busy = True
+    def submit(self, call: Callable[[], T]) -> Future[T]:
+        """Start ``call()`` on the primary thread when it is free, else on an extra thread;
+        its future."""
+        with self._lock:
+            if self._primary_busy:
+                return self._extra.submit(call)
+            self._primary_busy = True
+            if self._primary is None:        # made again after close(): a new app's start
+                self._primary = ThreadPoolExecutor(1, thread_name_prefix="photomodel-search")
+            primary = self._primary
 
         def on_primary() -> Any:
             try:
                 return call()
             finally:  # freed by the thread itself: a cancelled request still holds it
-                loop.call_soon_threadsafe(self._free)
+                with self._lock:
+                    self._primary_busy = False
 
+        try:
+            return primary.submit(on_primary)
+        except RuntimeError:                 # shut down meanwhile (the service is closing)
+            with self._lock:
+                self._primary_busy = False
+            return self._extra.submit(call)
+
+    def call(self, call: Callable[[], T]) -> T:
+        """``call()`` in a search thread, waiting for it (for a caller that is a thread)."""
+        return self.submit(call).result()
+
+    async def run(self, call: Callable[[], T]) -> T:
+        """``call()`` in a search thread; its result (or its exception)."""
         # shielded: a cancelled request leaves the call to run (and free the thread) anyway
-        return await asyncio.shield(loop.run_in_executor(self._primary, on_primary))
-
-    def _free(self) -> None:
-        self._primary_busy = False
+        return await asyncio.shield(asyncio.wrap_future(self.submit(call)))
 
     def close(self) -> None:
-        """Let the primary thread end once its call is done."""
-        self._primary.shutdown(wait=False)
+        """Let the primary thread end once its call is done (a later call makes a new one)."""
+        with self._lock:
+            primary, self._primary = self._primary, None
+        if primary is not None:
+            primary.shutdown(wait=False)

@@ -30,10 +30,11 @@ From the service's camera (``/track?model=NAME&source=camera``): the server trac
 of its camera source instead of frames sent by the client; one answer per tracked pair, the
 object above plus ``frame_index`` (the pair's number at its source), ``frame_t_s`` (its time,
 unix s; also the tracker's ``t_s`` and ``pose_stamped``'s stamp) and ``source`` (its name).
-``received`` counts the pairs the stream was handed, ``dropped`` those it skipped while
-tracking an earlier one (the newest wins, as above); ``credit`` and ``{"reset": true}`` work
-as above. The client sends only text messages: a binary one is answered with an error and
-ignored. The pairs come from the service's one grabbing loop
+``received`` counts the pairs the stream was handed, ``dropped`` those it skipped: a camera
+stream tracks its pairs in order, holding up to :data:`QUEUED_PAIRS` while it tracks an
+earlier one (a late moment loses nothing; the oldest are dropped beyond); ``credit`` and
+``{"reset": true}`` work as above. The client sends only text messages: a binary one is
+answered with an error and ignored. The pairs come from the service's one grabbing loop
 (:class:`~photomodel.service._camera_feed.CameraFeed`), shared by every camera stream, so two
 viewers do not halve each other's frame rate. A source that stops or refuses a pair is
 answered once with ``{"error": ..., "source": NAME}`` (free of credit) and the stream waits
@@ -48,7 +49,9 @@ import json
 import math
 import struct
 import time
+from collections import deque
 from collections.abc import Awaitable, Callable
+from functools import partial
 from typing import Any
 
 import anyio
@@ -69,6 +72,8 @@ POLICY_VIOLATION = 1008
 """WebSocket close code of a refused stream (unknown model, bad query)."""
 MAX_CREDIT = 1_000_000
 """Most answers a client may ask for ahead (``credit``)."""
+QUEUED_PAIRS = 8
+"""Camera pairs a stream holds while it tracks an earlier one (oldest dropped beyond)."""
 
 
 def encode_frame(right: bytes, left: bytes, *, t_s: float | None = None,
@@ -148,12 +153,185 @@ class _TrackMetrics:
                                           0.5, 1.0), registry=registry)
 
 
+class _Stream:
+    """One ``/track`` connection: its tracker, what waits to be tracked, its counts, and the
+    three tasks that run it (:meth:`receive` the client's messages, :meth:`pump` the camera's
+    pairs, :meth:`answer` track and send)."""
+
+    def __init__(self, ws: WebSocket, cell: Any, name: str, tracker: Any, metrics: _TrackMetrics,
+                 finite: Callable[[Any], Any], credit: int | None, camera: bool) -> None:
+        self.ws, self.cell, self.name, self.tracker = ws, cell, name, tracker
+        self.metrics, self.finite = metrics, finite
+        self.credit, self.camera = credit, camera
+        self.frame: bytes | None = None                   # a client's newest frame
+        self.queue: deque[tuple[StereoGrab, str | None]] = deque()  # the camera's pairs
+        self.received = self.dropped = self.superseded = 0
+        self.open, self.reset = True, False
+        self.text_error: str | None = None
+        self.source_error: str | None = None
+        self.arrived = anyio.Event()
+
+    def _drop(self, n: int = 1) -> None:
+        self.dropped += n
+        self.metrics.frames.labels("dropped").inc(n)
+
+    def _poke(self) -> None:
+        self.arrived.set()
+
+    def track(self, message: bytes | tuple[StereoGrab, str | None]) -> dict[str, Any]:
+        """Track one client frame or camera pair (in a search thread); its answer."""
+        from photomodel.service._ros import pose_stamped
+
+        if isinstance(message, bytes):
+            right, left, t_s = decode_frame(message)
+            result = self.tracker(right, left, t_s=t_s)
+            stamp_s = time.time()
+        else:
+            grab, source = message
+            result = self.tracker(grab.right_bgr, grab.left_bgr, t_s=grab.t_s)
+            stamp_s = grab.t_s
+            self.cell.feed.tracked(self.name, grab, None if result.mode == "lost"
+                                   else result.T_cam1_model)
+        answer = result.to_json_dict()
+        answer["pose_stamped"] = (None if result.mode == "lost"
+                                  else pose_stamped(result.T_cam1_model, stamp_s))
+        if not isinstance(message, bytes):
+            answer.update(frame_index=grab.index, frame_t_s=grab.t_s, source=source)
+        return answer
+
+    async def receive(self) -> None:
+        """The client's messages: frames (the newest wins), resets, credit."""
+        try:
+            while True:
+                message = await self.ws.receive()
+                if message["type"] == "websocket.disconnect":
+                    break
+                if message.get("bytes") is not None and self.camera:
+                    self.text_error = ("binary message: a camera stream (source=camera) "
+                                       "takes no frames; ignored")
+                elif message.get("bytes") is not None:
+                    self.received += 1
+                    if self.frame is not None:
+                        self._drop()
+                    self.frame = message["bytes"]
+                elif message.get("text") is not None:
+                    try:
+                        reset, more = _control(message["text"])
+                    except InputError as exc:
+                        self.text_error = str(exc)    # the latest one is answered
+                    else:
+                        self.reset = self.reset or reset  # not cancelled later
+                        if more and self.credit is not None:
+                            self.credit = min(self.credit + more, MAX_CREDIT)
+                self._poke()
+        finally:
+            self.open = False
+            self._poke()
+
+    async def pump(self) -> None:
+        """Queue the feed's pairs in order (at most :data:`QUEUED_PAIRS`; the oldest are
+        dropped beyond) and note its errors."""
+        feed = self.cell.feed
+        seen = feed.state
+        if seen.error is not None:
+            self.source_error = seen.error
+            self._poke()
+        while self.open and not feed.closed:
+            now = await anyio.to_thread.run_sync(feed.wait, seen.pairs, seen.errors, 0.5)
+            if now.errors > seen.errors and now.error is not None:
+                self.source_error = now.error
+            kept, lost = now.since(seen.pairs)
+            self.received += len(kept) + lost
+            if lost:
+                self._drop(lost)
+            for grab in kept:
+                if len(self.queue) == QUEUED_PAIRS:
+                    self.queue.popleft()
+                    self._drop()
+                self.queue.append((grab, now.source))
+            seen = now
+            self._poke()
+
+    async def send(self, out: dict[str, Any], spend: bool = True) -> bool:
+        """Send one answer with the counts (spending one credit when ``spend``); False when
+        the client has gone."""
+        out.update(received=self.received, dropped=self.dropped)
+        if self.credit is not None:
+            out["superseded"] = self.superseded
+            if spend:
+                self.credit -= 1
+        try:
+            await self.ws.send_text(json.dumps(self.finite(out), allow_nan=False))
+        except (WebSocketDisconnect, RuntimeError):
+            return False
+        return True
+
+    def _next(self) -> bytes | tuple[StereoGrab, str | None] | None:
+        if self.camera:
+            if not self.queue:
+                return None
+            pair = self.queue.popleft()
+            if self.queue:
+                self._poke()                  # more wait: come round again
+            return pair
+        frame, self.frame = self.frame, None
+        return frame
+
+    async def answer(self) -> None:
+        """Track what waits and send the answers (errors first, free of credit)."""
+        pending: dict[str, Any] | None = None
+        while True:
+            await self.arrived.wait()
+            self.arrived = anyio.Event()
+            if not self.open:
+                return
+            if self.text_error is not None:
+                error, self.text_error = self.text_error, None
+                if not await self.send({"error": error}, spend=False):
+                    return
+            if self.source_error is not None:          # likewise: the source stopped
+                error, self.source_error = self.source_error, None
+                if not await self.send({"error": error, "source": self.cell.feed.state.source},
+                                       spend=False):
+                    return
+            if self.reset:
+                self.reset = False
+                self.tracker.reset()
+            frame = self._next()
+            if frame is not None:
+                if pending is not None:
+                    self.superseded += 1              # tracked, never asked for
+                t0 = time.perf_counter()
+                try:
+                    pending = await self.cell.threads.run(partial(self.track, frame))
+                    self.metrics.frames.labels("tracked").inc()
+                    self.metrics.seconds.observe(time.perf_counter() - t0)
+                except PhotomodelError as exc:
+                    self.metrics.frames.labels("bad").inc()
+                    pending = {"error": str(exc)}
+            # with credit, the answer waits until it is asked for (a newer one replaces it)
+            if pending is not None and (self.credit is None or self.credit > 0):
+                out, pending = pending, None
+                if not await self.send(out):
+                    return
+
+    async def run(self) -> None:
+        with contextlib.ExitStack() as held:
+            if self.camera:
+                held.enter_context(self.cell.feed.subscribed())
+            async with anyio.create_task_group() as tasks:
+                tasks.start_soon(self.receive)
+                if self.camera:
+                    tasks.start_soon(self.pump)
+                await self.answer()
+                tasks.cancel_scope.cancel()
+
+
 def track_endpoint(cell: Any, registry: CollectorRegistry,
                    finite: Callable[[Any], Any]) -> Callable[[WebSocket], Awaitable[None]]:
     """The ``/track`` WebSocket endpoint of the cell service ``cell`` (a
     :class:`~photomodel.service.CellService`), its metrics in ``registry``; ``finite`` maps
     NaN to None in an answer."""
-    from photomodel.service._ros import pose_stamped
     from photomodel.track import Tracker
 
     metrics = _TrackMetrics(registry)
@@ -166,153 +344,13 @@ def track_endpoint(cell: Any, registry: CollectorRegistry,
                 raise InputError("model", "expected /track?model=NAME")
             locator = await anyio.to_thread.run_sync(cell.locator, name)
             tracker = await anyio.to_thread.run_sync(Tracker, locator.model, cell.rig)
+            credit = _initial_credit(ws.query_params.get("credit"))
+            camera = _camera(ws.query_params.get("source"), cell)
         except PhotomodelError as exc:
             await ws.send_json({"error": str(exc)})
             await ws.close(code=POLICY_VIOLATION)
             return
-        try:
-            credit = _initial_credit(ws.query_params.get("credit"))
-            camera = _camera(ws.query_params.get("source"), cell)
-        except InputError as exc:
-            await ws.send_json({"error": str(exc)})
-            await ws.close(code=POLICY_VIOLATION)
-            return
-        state: dict[str, Any] = {"frame": None, "received": 0, "dropped": 0, "open": True,
-                                 "reset": False, "text_error": None, "credit": credit,
-                                 "superseded": 0, "source_error": None}
-        arrived = anyio.Event()
-
-        def track(message: bytes | tuple[StereoGrab, str | None]) -> dict[str, Any]:
-            if isinstance(message, bytes):
-                right, left, t_s = decode_frame(message)
-                result = tracker(right, left, t_s=t_s)
-                stamp_s = time.time()
-            else:
-                grab, source = message
-                result = tracker(grab.right_bgr, grab.left_bgr, t_s=grab.t_s)
-                stamp_s = grab.t_s
-                cell.feed.tracked(name, grab, None if result.mode == "lost"
-                                  else result.T_cam1_model)
-            answer = result.to_json_dict()
-            answer["pose_stamped"] = (None if result.mode == "lost"
-                                      else pose_stamped(result.T_cam1_model, stamp_s))
-            if not isinstance(message, bytes):
-                answer.update(frame_index=grab.index, frame_t_s=grab.t_s, source=source)
-            return answer
-
-        async def receive() -> None:
-            nonlocal arrived
-            try:
-                while True:
-                    message = await ws.receive()
-                    if message["type"] == "websocket.disconnect":
-                        break
-                    if message.get("bytes") is not None and camera:
-                        state["text_error"] = ("binary message: a camera stream "
-                                               "(source=camera) takes no frames; ignored")
-                    elif message.get("bytes") is not None:
-                        state["received"] += 1
-                        if state["frame"] is not None:
-                            state["dropped"] += 1
-                            metrics.frames.labels("dropped").inc()
-                        state["frame"] = message["bytes"]
-                    elif message.get("text") is not None:
-                        try:
-                            reset, more = _control(message["text"])
-                        except InputError as exc:
-                            state["text_error"] = str(exc)    # the latest one is answered
-                        else:
-                            state["reset"] = state["reset"] or reset  # not cancelled later
-                            if more and state["credit"] is not None:
-                                state["credit"] = min(state["credit"] + more, MAX_CREDIT)
-                    arrived.set()
-            finally:
-                state["open"] = False
-                arrived.set()
-
-        async def pump() -> None:
-            """Hand the feed's newest pair (and its errors) to ``answer``."""
-            seen = cell.feed.state
-            if seen.error is not None:
-                state["source_error"] = seen.error
-                arrived.set()
-            while state["open"] and not cell.feed.closed:
-                now = await anyio.to_thread.run_sync(cell.feed.wait, seen.pairs, seen.errors,
-                                                     0.5)
-                if now.errors > seen.errors and now.error is not None:
-                    state["source_error"] = now.error
-                if now.pairs > seen.pairs and now.grab is not None:
-                    new = now.pairs - seen.pairs
-                    state["received"] += new
-                    skipped = new - 1 + (state["frame"] is not None)
-                    if skipped:
-                        state["dropped"] += skipped
-                        metrics.frames.labels("dropped").inc(skipped)
-                    state["frame"] = (now.grab, now.source)
-                seen = now
-                arrived.set()
-
-        async def send(out: dict[str, Any], spend: bool = True) -> bool:
-            """Send one answer with the counts (spending one credit when ``spend``); False
-            when the client has gone."""
-            out.update(received=state["received"], dropped=state["dropped"])
-            if state["credit"] is not None:
-                out["superseded"] = state["superseded"]
-            if spend and state["credit"] is not None:
-                state["credit"] -= 1
-            try:
-                await ws.send_text(json.dumps(finite(out), allow_nan=False))
-            except (WebSocketDisconnect, RuntimeError):
-                return False
-            return True
-
-        async def answer() -> None:
-            nonlocal arrived
-            pending: dict[str, Any] | None = None
-            while True:
-                await arrived.wait()
-                arrived = anyio.Event()
-                if not state["open"]:
-                    return
-                if state["text_error"] is not None:   # answered at once, free of credit
-                    error, state["text_error"] = state["text_error"], None
-                    if not await send({"error": error}, spend=False):
-                        return
-                if state["source_error"] is not None:  # likewise: the source stopped
-                    error, state["source_error"] = state["source_error"], None
-                    if not await send({"error": error, "source": cell.feed.state.source},
-                                      spend=False):
-                        return
-                if state["reset"]:
-                    state["reset"] = False
-                    tracker.reset()
-                frame, state["frame"] = state["frame"], None
-                if frame is not None:
-                    if pending is not None:
-                        state["superseded"] += 1      # tracked, never asked for
-                    t0 = time.perf_counter()
-                    try:
-                        pending = await anyio.to_thread.run_sync(track, frame)
-                        metrics.frames.labels("tracked").inc()
-                        metrics.seconds.observe(time.perf_counter() - t0)
-                    except PhotomodelError as exc:
-                        metrics.frames.labels("bad").inc()
-                        pending = {"error": str(exc)}
-                # with credit, the answer waits until it is asked for (a newer one replaces it)
-                if pending is not None and (state["credit"] is None or state["credit"] > 0):
-                    out, pending = pending, None
-                    if not await send(out):
-                        return
-
-        with contextlib.ExitStack() as held:
-            if camera:
-                held.enter_context(cell.feed.subscribed())
-            async with anyio.create_task_group() as tasks:
-                tasks.start_soon(receive)
-                if camera:
-                    tasks.start_soon(pump)
-                await answer()
-                tasks.cancel_scope.cancel()
+        await _Stream(ws, cell, name, tracker, metrics, finite, credit, camera).run()
 
     return endpoint
 
