@@ -276,6 +276,17 @@ class SampleDrawer:
         """The mask's :class:`_Outline`."""
         return _outline_of(self.prepared.model)
 
+    def crop_pixels(self, xy_mm: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Photo-crop pixels (..., 2) (u, v) of model-plane points (..., 2) (x, y mm): where
+        :meth:`colours` and the model's mask show them."""
+        xy = np.asarray(xy_mm, dtype=np.float64)
+        return self._outline.to_crop(xy.reshape(-1, 2)).reshape(xy.shape)
+
+    @property
+    def px_per_mm(self) -> float:
+        """Photo pixels per mm on the garment."""
+        return self._outline.px_per_mm
+
     @cached_property
     def _mask(self) -> NDArray[np.float32]:
         """The garment's mask (H, W) as 0 / 1 float32."""

@@ -119,6 +119,17 @@ class StereoFeatures:
         self._set(rig, match, (feature_pyramid(log_opponent(right_bgr, sigma), levels),
                                feature_pyramid(log_opponent(left_bgr, sigma), levels)))
 
+    @classmethod
+    def from_pyramids(cls, rig: StereoRig, match: SoftMatch,
+                      pyramids: tuple[list[NDArray[np.float32]], list[NDArray[np.float32]]]
+                      ) -> StereoFeatures:
+        """Features made of given pyramids (camera 1's and camera 2's levels (H, W, 3)
+        float32, as :func:`~photomodel.image.feature_pyramid` makes them): a pair's features
+        edited (:func:`~photomodel.identify.identify_all` paints found garments over)."""
+        out = cls.__new__(cls)
+        out._set(rig, match, pyramids)
+        return out
+
     def _set(self, rig: StereoRig, match: SoftMatch,
              pyramids: tuple[list[NDArray[np.float32]], list[NDArray[np.float32]]]) -> None:
         """Set the rig, the match and both cameras' feature pyramids (levels (H, W, 3))."""

@@ -35,6 +35,7 @@ __getattr__, _dir, _ = lazy_loader.attach(
             "identify_with_bank",
         ],
         "_scene": ["Region", "SceneConfig", "SceneRegions", "scene_regions"],
+        "_table": ["TableConfig", "TableGarment", "TableResult", "identify_all"],
     },
 )
 
@@ -52,9 +53,13 @@ __all__ = [
     "Region",
     "SceneConfig",
     "SceneRegions",
+    "TableConfig",
+    "TableGarment",
+    "TableResult",
     "Threshold",
     "calibrate_threshold",
     "identify",
+    "identify_all",
     "identify_in_features",
     "identify_with_bank",
     "load_threshold",

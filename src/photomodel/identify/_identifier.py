@@ -21,6 +21,7 @@ from photomodel.identify._identify import (
     identify_with_bank,
     model_descriptor,
 )
+from photomodel.identify._table import TableConfig, TableResult, identify_all
 from photomodel.library import LibraryEntry, ModelLibrary
 from photomodel.locate import Locator, load_threshold
 from photomodel.model import PhotoModel
@@ -200,6 +201,29 @@ class Identifier:
 
         return identify_with_bank(bank, prepared, features, config=self.config,
                                   space=self.space, rng=rng, t0=t0)
+
+    def all(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
+            rng: int | np.random.Generator | None = None, *,
+            table: TableConfig | None = None) -> TableResult:
+        """Every library garment in one stereo pair, which lies on which, and the pick order
+        (:func:`~photomodel.identify.identify_all`)."""
+        t0 = time.perf_counter()
+        return self.all_in_features(StereoFeatures(self.rig, right_bgr, left_bgr), rng,
+                                    table=table, t0=t0)
+
+    def all_in_features(self, features: StereoFeatures,
+                        rng: int | np.random.Generator | None = None, *,
+                        table: TableConfig | None = None, t0: float | None = None
+                        ) -> TableResult:
+        """:meth:`all` on a stereo pair already turned into features."""
+        entries, bank = self._state
+        load = self._loader(entries)
+
+        def prepared(i: int) -> PreparedModel:
+            return self.prepared.get(bank.names[i], load).prepared
+
+        return identify_all(bank, prepared, features, config=self.config, table=table,
+                            space=self.space, rng=rng, t0=t0)
 
     def __len__(self) -> int:
         return len(self.bank)
