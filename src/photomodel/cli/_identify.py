@@ -6,8 +6,12 @@ import argparse
 import json
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from photomodel.errors import InputError
+
+if TYPE_CHECKING:
+    from photomodel.identify import TableResult
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -26,6 +30,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--min-score", type=float, default=None,
                    help="accept the best model from this score (default: the calibrated, "
                         "stored threshold)")
+    p.add_argument("--all", action="store_true",
+                   help="every library garment in view (several, or two of one model), "
+                        "which lies on which, and the order to pick them in")
     p.add_argument("--max-candidates", type=int, default=6,
                    help="most models verified by a pose search after the screen (default 6; "
                         "fewer are when the best is clearly ahead)")
@@ -38,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from photomodel.cli._options import check_float
     from photomodel.identify import Identifier, IdentifyConfig
     from photomodel.image import read_color_image
-    from photomodel.library import ModelLibrary
+    from photomodel.library import LOOKED_FOR, ModelLibrary
     from photomodel.locate import threshold_path
 
     if args.min_score is not None:
@@ -60,7 +67,10 @@ def run(args: argparse.Namespace) -> int:
     warn_skipped([str(w.message) for w in caught])
     if not len(identifier):
         raise InputError(args.models, "the library holds no usable photo-model (it looked "
-                                      "for *.npz files written by photomodel build)")
+                                      f"for {LOOKED_FOR})")
+    if args.all:
+        return _print_all(identifier.all(right, left, rng=args.seed), args.json,
+                          len(identifier))
     result = identifier(right, left, rng=args.seed)
     if args.json:
         print(json.dumps(result.to_json_dict()))
@@ -79,4 +89,23 @@ def run(args: argparse.Namespace) -> int:
     print(f"runner-up   {runner_text}")
     print(f"identify    {sum(c.result is not None for c in result.candidates)} of "
           f"{len(identifier)} models searched, {result.seconds:.2f} s")
+    return 0
+
+
+def _print_all(result: TableResult, as_json: bool, models: int) -> int:
+    """Print ``identify --all``'s answer: one JSON object, or a line per garment."""
+    if as_json:
+        print(json.dumps(result.to_json_dict()))
+        return 0
+    if not result.garments:
+        print(f"table       none of the {models} models is on the table "
+              f"({result.unexplained_mm2:.0f} mm^2 of foreground unexplained)")
+    for inst in result.pick_order:
+        g = result.garments[inst]
+        x, y, z = g.result.position_mm
+        under = ", ".join(f"#{i}" for i in g.covered_by) or "nothing"
+        print(f"pick {g.pick_rank + 1}      #{g.instance} {g.model}  score {g.result.score:.3f}"
+              f"  visible {g.visible_fraction:.0%}  at ({x:.1f}, {y:.1f}, {z:.1f}) mm  theta "
+              f"{g.result.theta_deg:.1f} deg  under: {under}")
+    print(f"identify    {len(result.garments)} garment(s), {result.seconds:.2f} s")
     return 0

@@ -153,11 +153,27 @@ class TableResult:
         return self.garments[self.pick_order[0]] if self.pick_order else None
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The ``identify --all --json`` object (docs/contracts.md)."""
-        return {"garments": [g.to_json_dict() for g in self.garments],
-                "pick_order": list(self.pick_order), "count": len(self.garments),
-                "min_score": self.min_score, "unexplained_mm2": self.unexplained_mm2,
-                "seconds": self.seconds}
+        """The ``identify --all --json`` object (docs/contracts.md): ``identify --json``'s
+        keys for the garment to pick first (``model`` null on an empty table; ``runner_up``
+        the next to pick), plus ``garments`` (each one's object, :meth:`TableGarment.
+        to_json_dict`), ``pick_order`` (instances), ``count`` and ``unexplained_mm2``."""
+        first = self.first
+        if first is not None:
+            out = first.result.to_json_dict()
+        else:
+            out = {"model": None, "found": False, "T_cam1_model": None, "position_mm": None,
+                   "quat_wxyz": None, "theta_deg": None, "fitness": None, "score": 0.0}
+        nxt = self.garments[self.pick_order[1]] if len(self.pick_order) > 1 else None
+        out.update(
+            seconds=self.seconds, min_score=self.min_score,
+            runner_up={"model": None if nxt is None else nxt.model,
+                       "score": None if nxt is None else nxt.result.score},
+            candidates=[{"model": g.model, "evidence": None, "score": g.result.score}
+                        for g in self.garments],
+            garments=[g.to_json_dict() for g in self.garments],
+            pick_order=list(self.pick_order), count=len(self.garments),
+            unexplained_mm2=self.unexplained_mm2)
+        return out
 
 
 # ----------------------------------------------------------------------------- appearance
