@@ -21,7 +21,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "soft_score",
         ],
         "_locator": ["Locator"],
-        "_overlay": ["draw_overlay"],
+        "_overlay": ["draw_overlay", "draw_table_overlay"],
         "_prepare": ["prepare_model"],
         "_threshold": [
             "THRESHOLD_FILE",
@@ -49,6 +49,7 @@ __all__ = [
     "Threshold",
     "calibrate_threshold",
     "draw_overlay",
+    "draw_table_overlay",
     "locate",
     "load_threshold",
     "locate_in_features",

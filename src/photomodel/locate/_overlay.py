@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 from photomodel.camera import StereoRig
 from photomodel.model import PhotoModel
 
-__all__ = ["draw_overlay"]
+__all__ = ["RANK_COLOURS_BGR", "draw_overlay", "draw_table_overlay"]
 
 
 def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np.uint8],
@@ -56,3 +56,42 @@ def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np
 def _text(img: NDArray[np.uint8], text: str, org: tuple[int, int]) -> None:
     cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
     cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+
+
+RANK_COLOURS_BGR = ((0, 220, 0), (0, 255, 255), (255, 200, 0), (255, 0, 255), (0, 128, 255))
+"""Outline colours by pick rank: the garment to pick first green, then yellow, cyan, ..."""
+
+
+def draw_table_overlay(rig: StereoRig, right_bgr: NDArray[np.uint8],
+                       left_bgr: NDArray[np.uint8],
+                       garments: list[tuple[PhotoModel, NDArray[np.float64], str]],
+                       caption: str = "") -> NDArray[np.uint8]:
+    """Left image | right image with every found garment's outline and its label.
+
+    ``garments``: (model, ``A_cam1_model`` (4, 4), label) in pick order (the first drawn
+    green, on top of the others); each label (its pick rank, name and score, say) is written
+    at the garment's model origin.
+    """
+    panels = [left_bgr.copy(), right_bgr.copy()]
+    for k in reversed(range(len(garments))):
+        model, A, label = garments[k]
+        colour = RANK_COLOURS_BGR[min(k, len(RANK_COLOURS_BGR) - 1)]
+        uv1, uv2 = rig.project_poses(A, model.outline_mm)
+        o1, o2 = rig.project_poses(A, np.zeros((1, 3)))
+        for panel, uv, origin in ((panels[0], uv2, o2), (panels[1], uv1, o1)):
+            if np.isfinite(uv).all():
+                cv2.polylines(panel, [np.rint(uv).astype(np.int32).reshape(-1, 1, 2)], True,
+                              colour, 2, cv2.LINE_AA)
+            if np.isfinite(origin).all():
+                u, v = (int(c) for c in np.rint(origin[0]))
+                _text(panel, label, (u - 4 * len(label), v))
+    for panel, name in zip(panels, ("left (camera 2)", "right (camera 1)"), strict=True):
+        _text(panel, name, (8, 20))
+    h = max(p.shape[0] for p in panels)
+    panels = [cv2.copyMakeBorder(p, 0, h - p.shape[0], 0, 0, cv2.BORDER_CONSTANT) for p in panels]
+    sheet = np.concatenate([panels[0], np.zeros((h, 6, 3), np.uint8), panels[1]], axis=1)
+    if caption:
+        bar = np.zeros((28, sheet.shape[1], 3), np.uint8)
+        _text(bar, caption, (8, 19))
+        sheet = np.concatenate([sheet, bar], axis=0)
+    return sheet

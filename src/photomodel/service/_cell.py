@@ -27,7 +27,7 @@ from photomodel.identify import CacheStats, Identifier, IdentifyConfig
 from photomodel.image import decode_color_image, decode_color_images
 from photomodel.library import ModelLibrary, check_model_name
 from photomodel.library._library import LibraryEntry
-from photomodel.locate import Locator, draw_overlay, load_threshold
+from photomodel.locate import Locator, draw_overlay, draw_table_overlay, load_threshold
 from photomodel.model import PhotoModel, build_model
 from photomodel.service._camera_feed import CameraFeed
 from photomodel.service._results import Latencies, ResultRing
@@ -146,6 +146,13 @@ def _pair_png(right: NDArray[np.uint8], left: NDArray[np.uint8], caption: str,
     """The overlay of a result: the model drawn at its pose, or the bare pair with a caption."""
     A = A_cam1_model if A_cam1_model is not None else np.full((4, 4), np.nan)
     return _png(draw_overlay(model, rig, right, left, A, caption))
+
+
+def _table_png(right: NDArray[np.uint8], left: NDArray[np.uint8], caption: str,
+               drawn: list[tuple[PhotoModel, NDArray[np.float64], str]], rig: StereoRig
+               ) -> bytes:
+    """The overlay of an ``all`` result: every garment with its pick rank, name and score."""
+    return _png(draw_table_overlay(rig, right, left, drawn, caption))
 
 
 _PreviewKey = tuple[str, str, int, int]
@@ -497,29 +504,39 @@ class CellService:
                                                    self.rig))
         return answer
 
-    def identify(self, right: bytes, left: bytes, seed: int | None = None) -> dict[str, Any]:
+    def identify(self, right: bytes, left: bytes, seed: int | None = None, *,
+                 every: bool = False) -> dict[str, Any]:
         """``identify --json``'s object for the uploaded pair (image files), plus ``id`` and
-        ``pose_stamped`` (null when no model is on the table)."""
+        ``pose_stamped`` (null when no model is on the table); ``every``: ``identify --all
+        --json``'s."""
         self.ready()
-        return self.identify_pair(*self.decode_pair(right, left), seed)
+        return self.identify_pair(*self.decode_pair(right, left), seed, every=every)
 
-    def identify_pair(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
-                      seed: int | None = None, *, frame: dict[str, Any] | None = None,
-                      stamp_s: float | None = None) -> dict[str, Any]:
-        """``identify --json``'s object for a pair of BGR (H, W, 3) uint8 views, plus ``id``
-        and ``pose_stamped`` (null when no model is on the table); ``frame`` and ``stamp_s``
-        as for :meth:`locate_pair`."""
-        identifier = self.identifier
-        self.check_pair(right_bgr, left_bgr)
+    def _identified(self, identifier: Identifier, right_bgr: NDArray[np.uint8],
+                    left_bgr: NDArray[np.uint8], seed: int | None, every: bool) -> Any:
         since = self._changes
+        call = identifier.all if every else identifier
         try:
-            result = identifier(right_bgr, left_bgr, rng=seed)
+            return call(right_bgr, left_bgr, rng=seed)
         except (KeyError, InputError):
             # a model screened in was removed (or replaced) before it could be loaded: once
             # more on the library as it is now
             if not self._wait_for_writers(since):
                 raise
-            result = identifier(right_bgr, left_bgr, rng=seed)
+            return call(right_bgr, left_bgr, rng=seed)
+
+    def identify_pair(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
+                      seed: int | None = None, *, frame: dict[str, Any] | None = None,
+                      stamp_s: float | None = None, every: bool = False) -> dict[str, Any]:
+        """``identify --json``'s object for a pair of BGR (H, W, 3) uint8 views, plus ``id``
+        and ``pose_stamped`` (null when no model is on the table); ``frame`` and ``stamp_s``
+        as for :meth:`locate_pair`; ``every``: every garment (``identify --all --json``'s
+        object; ``pose_stamped`` that of the garment to pick first)."""
+        identifier = self.identifier
+        self.check_pair(right_bgr, left_bgr)
+        if every:
+            return self._identified_all(identifier, right_bgr, left_bgr, seed, frame, stamp_s)
+        result = self._identified(identifier, right_bgr, left_bgr, seed, False)
         answer = result.to_json_dict()
         best = result.best
         answer["pose_stamped"] = (
@@ -538,6 +555,29 @@ class CellService:
             caption = "no model of the library in view"
         self.results.add("identify", answer, partial(_pair_png, right_bgr, left_bgr, caption,
                                                      model, A, self.rig))
+        return answer
+
+    def _identified_all(self, identifier: Identifier, right_bgr: NDArray[np.uint8],
+                        left_bgr: NDArray[np.uint8], seed: int | None,
+                        frame: dict[str, Any] | None, stamp_s: float | None
+                        ) -> dict[str, Any]:
+        result = self._identified(identifier, right_bgr, left_bgr, seed, True)
+        answer = result.to_json_dict()
+        first = result.first
+        answer["pose_stamped"] = (
+            None if first is None else
+            pose_stamped(first.result.T_cam1_model, time.time() if stamp_s is None else stamp_s))
+        answer.update(frame or {})
+        drawn = []
+        for g in (result.garments[i] for i in result.pick_order):
+            held = identifier.prepared.peek(g.model)
+            if held is not None:
+                drawn.append((held.model, g.result.A_cam1_model,
+                               f"{g.pick_rank + 1}: {g.model} {g.result.score:.2f}"))
+        caption = (f"{len(result.garments)} garment(s)  {result.seconds * 1000:.0f} ms"
+                   if result.garments else "no model of the library in view")
+        self.results.add("identify", answer, partial(_table_png, right_bgr, left_bgr, caption,
+                                                     drawn, self.rig))
         return answer
 
     # --- the camera source ------------------------------------------------------------------

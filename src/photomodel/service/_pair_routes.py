@@ -16,6 +16,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 from starlette.routing import Route
 
+from photomodel.errors import InputError
 from photomodel.image import decode_color_image
 from photomodel.service._app import _JSON, _body, _drain, _field, _file, _form, _seed, _TooLarge
 from photomodel.service._cell import CellService, NotFound
@@ -82,6 +83,17 @@ def _is_raw(request: Request) -> bool:
     return request.headers.get("content-type", "").split(";")[0].strip().lower() == RAW
 
 
+def _all(fields: FormData) -> bool:
+    """The ``all`` field: every garment (``true``/``1``) or the best one (absent, ``false``,
+    ``0``)."""
+    text = _field(fields, "all")
+    if text is None or text.strip().lower() in ("false", "0"):
+        return False
+    if text.strip().lower() in ("true", "1"):
+        return True
+    raise InputError("all", f"expected true or false, got {text!r}")
+
+
 def pair_routes(cell: CellService, work: Work, limit: int) -> list[Route]:
     """The routes, for :func:`~photomodel.service.create_app`; ``work`` runs a search in the
     app's bounded search threads, ``limit`` bounds a body (bytes, 413 beyond)."""
@@ -92,9 +104,10 @@ def pair_routes(cell: CellService, work: Work, limit: int) -> list[Route]:
             raise NotFound("model", f"no model named {model!r}")
         return cell.locate_pair(model, *views(), seed)
 
-    def identify_views(views: Callable[[], _Pair], seed: int | None) -> dict[str, Any]:
+    def identify_views(views: Callable[[], _Pair], seed: int | None, every: bool
+                       ) -> dict[str, Any]:
         cell.ready()
-        return cell.identify_pair(*views(), seed)
+        return cell.identify_pair(*views(), seed, every=every)
 
     async def locate(request: Request) -> Response:
         if _is_raw(request):
@@ -113,12 +126,13 @@ def pair_routes(cell: CellService, work: Work, limit: int) -> list[Route]:
     async def identify(request: Request) -> Response:
         if _is_raw(request):
             query, views = await _raw_body(request, limit)
-            return _JSON(await work(identify_views, views, _seed(query)))
+            return _JSON(await work(identify_views, views, _seed(query), _all(query)))
         form = await _form(request, limit)
         right, left, decode = await _parts(form)
         if decode is None:
-            return _JSON(await work(cell.identify, right, left, _seed(form)))
-        return _JSON(await work(identify_views, decode, _seed(form)))
+            return _JSON(await work(cell.identify, right, left, _seed(form),
+                                    every=_all(form)))
+        return _JSON(await work(identify_views, decode, _seed(form), _all(form)))
 
     return [Route("/locate", locate, methods=["POST"]),
             Route("/identify", identify, methods=["POST"])]
