@@ -398,21 +398,33 @@ def identify_all(
     while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
         result = identify_with_bank(bank, prepared, current, config=hidden, space=space,
                                     rng=int(gen.integers(0, 2**62)))
-        if not result.found or result.best is None:
+        if not result.found:
             break
-        best = result.best
-        covered = [np.zeros_like(e) for e in explained]
-        for _, seen in found:
-            covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
-        look = appearance(prepared(names[best.model]), best.A_cam1_model, features, rays,
-                          covered)
-        if not _accepted(best, look, covered, found, min_score, tc):
+        # every candidate the round located, best first: several garments a round
+        located = sorted((cand.result for cand in result.candidates
+                          if cand.result is not None and cand.result.found),
+                         key=lambda r: -r.score)
+        added = 0
+        for best in located:
+            if len(found) >= tc.max_garments:
+                break
+            covered = [np.zeros_like(e) for e in explained]
+            for _, seen in found:
+                covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
+            look = appearance(prepared(names[best.model]), best.A_cam1_model, features, rays,
+                              covered)
+            if not _accepted(best, look, covered, found, min_score, tc):
+                continue
+            found.append((best, look))
+            explained = [e | s for e, s in zip(explained, look.shows(tc.agree), strict=True)]
+            added += 1
+        if not added:
             break
-        shown = look.shows(tc.agree)
-        found.append((best, look))
-        explained = [e | s for e, s in zip(explained, shown, strict=True)]
         current = painted(features, explained, level)
-        unexplained_mm2 = _unexplained_mm2(regions, [covered[0] | look.inside[0]], level)
+        inside = np.zeros_like(explained[0])
+        for _, seen in found:
+            inside |= seen.inside[0]
+        unexplained_mm2 = _unexplained_mm2(regions, [inside], level)
     return _table_result(found, tc, min_score, unexplained_mm2, t0)
 
 
