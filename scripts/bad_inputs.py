@@ -437,6 +437,40 @@ def _bad_library(work: Path) -> None:
 
 IDENTIFY = ("--stereo", "stereo.yaml", "--right", "right.png", "--left", "left.png")
 
+BUILT = ("README.md", "photo.bmp", "shirt.model")
+"""``built``: a folder of what ``build --out built/shirt.model`` writes, with a README and a
+photo beside it, no index."""
+
+
+def _built_folder(work: Path) -> None:
+    folder = work / "built"
+    folder.mkdir()
+    shutil.copyfile(work / "shirt.npz", folder / "shirt.model")
+    shutil.copyfile(work / "photo.bmp", folder / "photo.bmp")
+    (folder / "README.md").write_text("garments of line 3\n")
+
+
+def _duplicate_library(work: Path) -> None:
+    """``duplib``: two files holding the model ``shirt`` (``shirt.model``, ``shirt_copy.npz``)."""
+    folder = work / "duplib"
+    folder.mkdir()
+    shutil.copyfile(work / "shirt.npz", folder / "shirt.model")
+    shutil.copyfile(work / "shirt.npz", folder / "shirt_copy.npz")
+
+
+def _holds_only(folder: str, names: Sequence[str]) -> Callable[[Path], str | None]:
+    """A ``verify``: ``folder`` holds exactly ``names`` (a read wrote nothing into it)."""
+
+    def verify(work: Path) -> str | None:
+        found = sorted(p.name for p in (work / folder).iterdir())
+        return None if found == sorted(names) else f"{folder} holds {found}"
+
+    return verify
+
+
+def _stdout(stdout: str) -> str:
+    return "stdout: " + " ".join(stdout.split())
+
 
 def _index_of(work: Path, library: str) -> dict[str, Any]:
     return json.loads((work / library / "index.json").read_text())
@@ -694,6 +728,18 @@ def cases() -> list[Case]:
         _case("Model library", "`identify --models` on a folder without model files",
               "identify", "--models", "nomodels", *IDENTIFY,
               prepare=lambda w: (w / "nomodels").mkdir(), verify=_still_empty("nomodels")),
+        _case("Model library", "`models list` on a folder without model files", "models",
+              "list", "--models", "nomodels_list", expected_code=0, summary=_stdout,
+              prepare=lambda w: (w / "nomodels_list").mkdir(),
+              verify=_still_empty("nomodels_list")),
+        _case("Model library", "a folder of `build --out built/shirt.model` output with a "
+              "README and a photo, no index: a library as it is, nothing written into it",
+              "identify", "--models", "built", *IDENTIFY, "--json", expected_code=0,
+              summary=_json_found, prepare=_built_folder, verify=_holds_only("built", BUILT)),
+        _case("Model library", "two files holding one model name (`shirt.model`, "
+              "`shirt_copy.npz`)", "models", "list", "--models", "duplib", expected_code=0,
+              summary=_model_count, prepare=_duplicate_library,
+              verify=_holds_only("duplib", ("shirt.model", "shirt_copy.npz"))),
         _case("Model library", "model name with a newline", "models", "add", "--models",
               "lib_nl", "shirt.npz", "--name", "two\nlines", verify=_no_model_in("lib_nl")),
         _case("Model library", "model name with a right-to-left override", "models", "add",

@@ -66,17 +66,18 @@ def test_corrupt_foreign_and_missing_files_are_skipped(tmp_path: Path,
     (root / "corrupt.npz").write_bytes(
         np.random.default_rng(0).integers(0, 256, 500, dtype=np.uint8).tobytes())
     np.savez(root / "foreign.npz", a=np.arange(3))
-    (root / "notes.txt").write_text("not a model")  # not a .npz: not looked at
+    (root / "notes.txt").write_text("not a model")  # any file may be a model: looked at
     save_model(identify_data.models[0], root / "copy_of_No.3.npz")  # a name already taken
     os.unlink(root / "No.9.npz")  # indexed, then deleted behind the library's back
     scan = lib.scan()
     assert [e.name for e in scan.entries] == ["No.3", "No.5"]
     skipped = {s.path.name: s.reason for s in scan.skipped}
-    assert set(skipped) == {"corrupt.npz", "foreign.npz", "copy_of_No.3.npz", "No.9.npz"}
+    assert set(skipped) == {"corrupt.npz", "foreign.npz", "copy_of_No.3.npz", "No.9.npz",
+                            "notes.txt"}
     assert "not a" in skipped["foreign.npz"] and "already taken" in skipped["copy_of_No.3.npz"]
-    assert "missing" in skipped["No.9.npz"]
+    assert "missing" in skipped["No.9.npz"] and "not a photomodel file" in skipped["notes.txt"]
     models, skipped_load = lib.load()
-    assert [m.name for m in models] == ["No.3", "No.5"] and len(skipped_load) == 4
+    assert [m.name for m in models] == ["No.3", "No.5"] and len(skipped_load) == 5
 
 
 def test_damaged_index_is_ignored_and_rebuilt(tmp_path: Path,

@@ -1,4 +1,4 @@
-"""``photomodel models list|add|remove|show``: manage a model library directory."""
+"""``photomodel models list|add|remove|show|reindex``: manage a model library directory."""
 
 from __future__ import annotations
 
@@ -15,10 +15,13 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("models", help="manage a model library (a directory of photo-models)",
                        description="List, add, remove and show the photo-models of a library "
-                                   "directory (DIR/<name>.npz with DIR/index.json). Files that "
-                                   "are not readable photo-models are skipped with a warning. "
-                                   "Writers take turns (a lock file in DIR), so concurrent "
-                                   "adds and removes keep every entry.")
+                                   "directory: its model files, whatever their names (what "
+                                   "photomodel build --out DIR/NAME.model writes; add copies "
+                                   "a model in as DIR/<name>.npz), and DIR/index.json, which "
+                                   "caches them and which the writers (add, remove, reindex) "
+                                   "keep. Files that are not readable photo-models are skipped "
+                                   "with a warning. Writers take turns (a lock file in DIR), "
+                                   "so concurrent adds and removes keep every entry.")
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     ls = actions.add_parser("list", help="the library's models: name, size, colours, dates")
     ls.add_argument("--models", required=True, type=Path, help="library directory")
@@ -40,6 +43,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     show.add_argument("name", help="model name")
     show.add_argument("--json", action="store_true", help="print one JSON object")
     show.set_defaults(run=run_show)
+    index = actions.add_parser("reindex", help="write the index from the model files (a "
+                                               "directory of built models opens faster)")
+    index.add_argument("--models", required=True, type=Path, help="library directory")
+    index.set_defaults(run=run_reindex)
 
 
 def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped] | list[str]) -> None:
@@ -61,7 +68,7 @@ def _entry_json(entry: LibraryEntry) -> dict[str, Any]:
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from photomodel.library import ModelLibrary
+    from photomodel.library import LOOKED_FOR, ModelLibrary
 
     scan = ModelLibrary(args.models).scan()
     warn_skipped(scan.skipped)
@@ -72,7 +79,7 @@ def run_list(args: argparse.Namespace) -> int:
                                       for s in scan.skipped]}))
         return 0
     if not scan.entries:
-        print(f"{args.models}: no models")
+        print(f"{args.models}: no models (looked for {LOOKED_FOR})")
         return 0
     width = max(len(e.name) for e in scan.entries)
     for e in scan.entries:
@@ -128,4 +135,13 @@ def run_show(args: argparse.Namespace) -> int:
         f"built       {entry.created_utc or 'unknown'}",
         f"added       {entry.added_utc}",
     ]))
+    return 0
+
+
+def run_reindex(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
+    scan = ModelLibrary(args.models).reindex()
+    warn_skipped(scan.skipped)
+    print(f"indexed {len(scan.entries)} model(s) in {args.models}/index.json")
     return 0

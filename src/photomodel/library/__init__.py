@@ -1,4 +1,5 @@
-"""Model libraries: a directory of photo-model files with an index (name, size, colours, dates)."""
+"""Model libraries: a directory of photo-model files, with an index that caches them (name, size,
+colours, dates, descriptors)."""
 
 import lazy_loader
 
@@ -8,6 +9,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_library": [
             "INDEX_NAME",
             "LIBRARY_FORMAT_VERSION",
+            "LOOKED_FOR",
             "LibraryEntry",
             "LibraryScan",
             "ModelLibrary",
@@ -21,6 +23,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
 __all__ = [
     "INDEX_NAME",
     "LIBRARY_FORMAT_VERSION",
+    "LOOKED_FOR",
     "LibraryEntry",
     "LibraryScan",
     "ModelLibrary",

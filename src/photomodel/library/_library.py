@@ -1,8 +1,10 @@
-"""A model library: a directory of photo-model files with an index.
+"""A model library: a directory of photo-model files, with an index that caches them.
 
 Layout::
 
-    DIR/<name>.npz     one self-contained photo-model each (:func:`photomodel.model.save_model`)
+    DIR/<any name>     one self-contained photo-model each (:func:`photomodel.model.save_model`;
+                       ``photomodel build --out DIR/shirt.model`` and ``models add``, which
+                       writes ``DIR/<name>.npz``, make them), named by the name it holds
     DIR/index.json     {"format": "photomodel-library", "version": 1,
                         "models": {"<name>": {"file", "size_mm", "area_mm2", "colours",
                                               "n_in", "n_out", "created_utc", "added_utc",
@@ -11,15 +13,21 @@ Layout::
 The model files are the truth; the index caches what listing needs (name, size, main colours,
 dates) and each model's descriptor (:class:`~photomodel.model.ModelDescriptor`, what
 identification screens a catalogue with), so that neither ``models list`` nor ``identify``
-opens every file. :meth:`ModelLibrary.scan` reconciles
-the two: an indexed file that is unchanged (same byte count and modification time) is taken
-from the index, any other ``.npz`` file is opened, and a file that is not a readable
-photo-model (corrupt, foreign, of a newer format), a model whose name another file already
-has, or an index entry whose file is gone is *skipped* with a :class:`Skipped` note naming it,
-whatever is wrong with the file (one bad file never makes the library unusable); nothing else in
-the directory is looked at. The index is written atomically (temporary file, then rename) by
+opens every file. A directory of model files without an index is a library too.
+:meth:`ModelLibrary.scan` reconciles the two: an indexed file that is unchanged (same byte
+count and modification time) is taken from the index and any other file of the directory is
+opened (a model file is a NumPy archive whatever its ending: ``.npz``, ``.model`` or none);
+a file that is not a readable photo-model (a README, a photo, a corrupt, foreign or newer
+model file), a model whose name another file already has, or an index entry whose file is
+gone is *skipped* with a :class:`Skipped` note naming it, whatever is wrong with the file (one
+bad file never makes the library unusable). Not looked at: sub-folders, hidden files (the
+lock, temporaries), the library's own ``index.json`` and ``threshold.json``, and the
+``*.preview.png`` pictures ``photomodel build`` writes beside a model. Of two files holding
+one name, the one the index lists under it is used, else the first by file name; the note
+on the other names both. The index is written atomically (temporary file, then rename) by
 :meth:`ModelLibrary.add`, :meth:`ModelLibrary.remove` and :meth:`ModelLibrary.reindex`, never
-by a read, and each of them reads, changes and writes the index holding an exclusive lock on
+by a read (a read of files the index does not vouch for describes them in memory), and each
+of them reads, changes and writes the index holding an exclusive lock on
 ``DIR/.index.lock`` (``fcntl.flock``; released by the kernel when the process dies), so that
 concurrent writers (several ``photomodel models add``, the service) never lose each other's
 entries. Readers need no lock: they see the old index or the new one, never a torn one.
@@ -50,6 +58,7 @@ from photomodel.model._descriptor import ModelDescriptor, describe_model
 __all__ = [
     "INDEX_NAME",
     "LIBRARY_FORMAT_VERSION",
+    "LOOKED_FOR",
     "LibraryEntry",
     "LibraryScan",
     "ModelLibrary",
@@ -63,8 +72,16 @@ LIBRARY_FORMAT_VERSION = 1
 MAX_NAME_CHARS = 100
 """Longest model name (the file name ``<name>.npz`` and its preview must fit a file system's
 255 bytes)."""
+LOOKED_FOR = ("photo-model files of any name, such as NAME.model or NAME.npz, as photomodel "
+              "build --out DIR/NAME.model and photomodel models add write them")
+"""What a scan looks for, for messages about a library without models."""
 _LOCK_NAME = ".index.lock"
 _FORMAT = "photomodel-library"
+_OWN_FILES = frozenset({INDEX_NAME, "threshold.json"})
+"""The library's own files (``threshold.json``: :data:`photomodel.locate.THRESHOLD_FILE`),
+never read as models."""
+_PREVIEW_ENDING = ".preview.png"
+"""The picture ``photomodel build`` writes beside a model file: not looked at."""
 _BAD_NAME_CHARS = set('/\\:*?"<>|')
 
 
@@ -90,7 +107,8 @@ class LibraryEntry:
     created_utc : str
         When the model was built (ISO 8601; empty if the file does not say).
     added_utc : str
-        When it entered the library (ISO 8601).
+        When it entered the library (ISO 8601; a file the index does not list yet: its
+        modification time).
     file_bytes, file_mtime_ns : int
         Size and modification time of the file when it was indexed.
     descriptor : ModelDescriptor or None
@@ -190,6 +208,12 @@ def _now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
+def _utc(seconds: float) -> str:
+    """A file time (seconds since the epoch) as :func:`_now` writes times: an un-indexed
+    file entered the library when it was written there."""
+    return _dt.datetime.fromtimestamp(seconds, _dt.UTC).isoformat(timespec="seconds")
+
+
 def _printable(text: str) -> str:
     """``text`` itself if it prints as one plain line, else its escaped form (``ascii``)."""
     return text if text.isprintable() else ascii(text)[1:-1]
@@ -226,7 +250,8 @@ def check_model_name(name: str, source: str = "name") -> str:
 
 
 class ModelLibrary:
-    """A directory of photo-models with an index (see the module docstring).
+    """A directory of photo-model files, with an index that caches them (see the module
+    docstring; a directory of model files without an index is a library too).
 
     Parameters
     ----------
@@ -284,13 +309,13 @@ class ModelLibrary:
 
     def _remove_leftovers(self) -> None:
         """Remove what killed writers left (call holding the lock): every index temporary,
-        and model temporaries (``.<name>.npz.tmp``) older than a minute (a ``photomodel build
-        --out`` straight into the directory, which takes no lock, may be writing a young
-        one)."""
+        and model temporaries (``.<name>.npz.tmp``, ``.<name>.model.tmp``) older than a
+        minute (a ``photomodel build --out`` straight into the directory, which takes no lock,
+        may be writing a young one)."""
         for stale in self.root.glob(f".{INDEX_NAME}.tmp-*"):
             stale.unlink(missing_ok=True)
         now = time.time()
-        for stale in self.root.glob(".*.npz.tmp"):
+        for stale in (*self.root.glob(".*.npz.tmp"), *self.root.glob(".*.model.tmp")):
             with contextlib.suppress(OSError):
                 if now - stale.stat().st_mtime > 60.0:
                     stale.unlink()
@@ -351,8 +376,25 @@ class ModelLibrary:
             file_bytes=int(st.st_size), file_mtime_ns=int(st.st_mtime_ns),
             descriptor=describe_model(model))
 
+    def _files(self) -> list[Path]:
+        """The directory's files that may be models (see the module docstring), by name."""
+        try:
+            paths = sorted(self.root.iterdir())
+        except OSError as exc:
+            raise InputError(self.root, f"cannot list the library ({exc.strerror})") from None
+        return [p for p in paths
+                if not (p.name.startswith(".") or p.name in _OWN_FILES
+                        or p.name.endswith(_PREVIEW_ENDING)) and p.is_file()]
+
     def scan(self) -> LibraryScan:
         """The usable models and the skipped files (reads only what the index cannot vouch for).
+
+        Every file of the directory that may be a model is considered (any file name: a
+        model file is an archive whatever its ending); a file the index lists, unchanged, is
+        taken from the index, any other is opened and described in memory (the index is left
+        as it is: writers update it). Of two files holding one model name, the one the index
+        lists under that name is used, else the first by file name; the other is skipped
+        with a note naming both.
 
         Returns
         -------
@@ -360,11 +402,9 @@ class ModelLibrary:
         """
         indexed, skipped = self._read_index()
         by_file = {e.file: e for e in indexed.values()}
-        entries: dict[str, LibraryEntry] = {}
-        for path in sorted(self.root.glob("*.npz")):
+        found: list[LibraryEntry] = []
+        for path in self._files():
             try:
-                if path.name.startswith(".") or not path.is_file():
-                    continue
                 st = path.stat()
                 cached = by_file.get(path.name)
                 if (cached is not None and cached.file_bytes == st.st_size
@@ -372,16 +412,22 @@ class ModelLibrary:
                     entry = cached
                 else:
                     model = _load_one(path)
-                    entry = self._entry_for(path, model,
-                                            cached.added_utc if cached is not None else _now())
+                    entry = self._entry_for(path, model, cached.added_utc if cached is not None
+                                            else _utc(st.st_mtime))
             except Exception as exc:  # noqa: BLE001 - one bad file must not sink the library
                 skipped.append(Skipped(path, _why(exc)))
                 continue
-            if entry.name in entries:
-                skipped.append(Skipped(path, f"model name {entry.name!r} is already taken by "
-                                             f"{entries[entry.name].file}"))
-                continue
-            entries[entry.name] = entry
+            found.append(entry)
+
+        def precedence(e: LibraryEntry) -> tuple[bool, str]:   # the indexed file, then by name
+            listed = indexed.get(e.name)
+            return (listed is None or listed.file != e.file, e.file)
+
+        entries: dict[str, LibraryEntry] = {}
+        for entry in sorted(found, key=precedence):
+            used = entries.setdefault(entry.name, entry)
+            if used is not entry:
+                skipped.append(Skipped(self.root / entry.file, _duplicate(entry.name, used.file)))
         for e in indexed.values():
             if not (self.root / e.file).is_file():
                 skipped.append(Skipped(self.root / e.file,
@@ -528,6 +574,11 @@ class ModelLibrary:
                                             "(use --replace to replace it)")
             target = self.root / f"{model.name}.npz"
             if model.name not in taken and target.exists():
+                holder = next((e.name for e in scan.entries if e.file == target.name), None)
+                if holder is not None:   # a model file named after another model
+                    raise InputError(target, f"holds the library's model {holder!r}; add "
+                                             "this one under another name, or rename that "
+                                             "file first")
                 raise InputError(target, "exists but is not a usable model of this library; "
                                          "remove it first")
             old = taken.get(model.name)
@@ -566,6 +617,12 @@ def _load_one(path: Path) -> PhotoModel:
     if problem is not None:
         raise InputError(path, f"model name {model.name[:60]!r}: {problem}")
     return model
+
+
+def _duplicate(name: str, used: str) -> str:
+    """The note on a file whose model name the file ``used`` holds too."""
+    return (f"model name {name!r} is already taken by {used}, which the library uses (move "
+            "this file out, or add it under another name with photomodel models add --name)")
 
 
 def _why(exc: Exception) -> str:
