@@ -1,4 +1,5 @@
-"""Image files and colour: reading with clear errors, atomic writing, HSV and hue distances."""
+"""Image files and colour: reading with clear errors, atomic writing, HSV and hue distances,
+text labels."""
 
 import lazy_loader
 
@@ -8,6 +9,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_hsv": ["bgr_to_hsv", "circular_mean_hue_deg", "hue_distance_deg"],
         "_io": ["decode_color_image", "decode_color_images", "read_color_image", "read_grey_image",
                 "write_image"],
+        "_label": ["draw_label"],
         "_sample": ["sample_bilinear"],
     },
 )
@@ -17,6 +19,7 @@ __all__ = [
     "circular_mean_hue_deg",
     "decode_color_image",
     "decode_color_images",
+    "draw_label",
     "hue_distance_deg",
     "read_color_image",
     "read_grey_image",

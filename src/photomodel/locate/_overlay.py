@@ -7,6 +7,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
+from photomodel.image import draw_label
 from photomodel.model import PhotoModel
 
 __all__ = ["RANK_COLOURS_BGR", "draw_overlay", "draw_table_overlay"]
@@ -54,8 +55,8 @@ def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np
 
 
 def _text(img: NDArray[np.uint8], text: str, org: tuple[int, int]) -> None:
-    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+    """White text on a dark outline, drawn once (:func:`~photomodel.image.draw_label`)."""
+    draw_label(img, text, org)
 
 
 RANK_COLOURS_BGR = ((0, 220, 0), (0, 255, 255), (255, 200, 0), (255, 0, 255), (0, 128, 255))

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel.image import draw_label
 from photomodel.model._build import BuildResult
 
 _IN_BGR = (255, 255, 0)  # cyan
@@ -48,7 +49,5 @@ def render_preview(photo_bgr: NDArray[np.uint8], built: BuildResult, scale: int 
         lines.append(q.summary() + (": WARNING, see the build's message" if q.warning else ""))
         colours.append(_WARN_BGR if q.warning else _TEXT_BGR)
     for i, (text, colour) in enumerate(zip(lines, colours, strict=True)):
-        org = (8, 20 + 20 * i)
-        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
+        draw_label(img, text, (8, 20 + 20 * i), colour)
     return img
