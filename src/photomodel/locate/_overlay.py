@@ -29,8 +29,7 @@ def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np
     axes = np.array([[0, 0, 0], [40, 0, 0], [0, 40, 0]], dtype=np.float64)
     ax1, ax2 = rig.project_poses(A_cam1_model, axes)
     panels = []
-    for img, uv, pin, ax, label in ((left_bgr, uv2, in2, ax2, "left (camera 2)"),
-                                    (right_bgr, uv1, in1, ax1, "right (camera 1)")):
+    for img, uv, pin, ax in ((left_bgr, uv2, in2, ax2), (right_bgr, uv1, in1, ax1)):
         out = img.copy()
         ok = np.isfinite(pin).all(axis=1)
         for u, v in np.rint(pin[ok]).astype(int)[::2]:
@@ -42,8 +41,14 @@ def draw_overlay(model: PhotoModel | None, rig: StereoRig, right_bgr: NDArray[np
             o, x, y = (tuple(int(c) for c in np.rint(p)) for p in ax)
             cv2.arrowedLine(out, o, x, (0, 0, 255), 2, cv2.LINE_AA)
             cv2.arrowedLine(out, o, y, (0, 200, 0), 2, cv2.LINE_AA)
-        _text(out, label, (8, 20))
         panels.append(out)
+    return _sheet(panels, caption)
+
+
+def _sheet(panels: list[NDArray[np.uint8]], caption: str) -> NDArray[np.uint8]:
+    """Camera 2's panel | camera 1's panel, each named, and the caption in a bar below."""
+    for panel, name in zip(panels, ("left (camera 2)", "right (camera 1)"), strict=True):
+        _text(panel, name, (8, 20))
     h = max(p.shape[0] for p in panels)
     panels = [cv2.copyMakeBorder(p, 0, h - p.shape[0], 0, 0, cv2.BORDER_CONSTANT) for p in panels]
     sheet = np.concatenate([panels[0], np.zeros((h, 6, 3), np.uint8), panels[1]], axis=1)
@@ -86,13 +91,4 @@ def draw_table_overlay(rig: StereoRig, right_bgr: NDArray[np.uint8],
             if np.isfinite(origin).all():
                 u, v = (int(c) for c in np.rint(origin[0]))
                 _text(panel, label, (u - 4 * len(label), v))
-    for panel, name in zip(panels, ("left (camera 2)", "right (camera 1)"), strict=True):
-        _text(panel, name, (8, 20))
-    h = max(p.shape[0] for p in panels)
-    panels = [cv2.copyMakeBorder(p, 0, h - p.shape[0], 0, 0, cv2.BORDER_CONSTANT) for p in panels]
-    sheet = np.concatenate([panels[0], np.zeros((h, 6, 3), np.uint8), panels[1]], axis=1)
-    if caption:
-        bar = np.zeros((28, sheet.shape[1], 3), np.uint8)
-        _text(bar, caption, (8, 19))
-        sheet = np.concatenate([sheet, bar], axis=0)
-    return sheet
+    return _sheet(panels, caption)
