@@ -247,6 +247,9 @@ def test_handeye_corrupt_pairs(capsys, tmp_path: Path) -> None:
     (["--condition", "sunny"], "--condition"),
     (["--orders", "0"], "orders"),
     (["--animate", "cell.avi"], "cell.avi"),
+    (["--tables", "0"], "--tables"),
+    (["--tables", "2", "--garments", "No.3"], "--garments"),
+    (["--tables", "2", "--garments", "7"], "--garments"),
 ])
 def test_cell_bad_options(capsys, tmp_path: Path, args: list[str], needle: str) -> None:
     out_dir = tmp_path / "out"

@@ -12,6 +12,7 @@ from photomodel.cli._pick import add_layout_options, layout_and_settings
 from photomodel.errors import InputError
 
 MAX_ORDERS = 100_000
+MAX_TABLES = 10_000
 MAX_TOLERANCE_MM = 1000.0
 MAX_BELT_MM_S = 500.0
 MIN_FPS, MAX_FPS = 5.0, 240.0
@@ -29,7 +30,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "the true centroid in the base frame.")
     p.add_argument("--orders", type=int, default=10,
                    help=f"number of orders (cycles), 1 to {MAX_ORDERS} (default 10)")
-    p.add_argument("--garments", default="all", help="catalogue garments, used in turn")
+    p.add_argument("--garments", default=None,
+                   help="catalogue garments, used in turn (default all); with --tables, the "
+                        "number of garments on each table, 2 to 6 (default 4)")
     p.add_argument("--conditions", "--condition", dest="condition", default="distractors",
                    help="simulated conditions of the table shots, joined with '+' (e.g. "
                         "distractors+wrinkles; default distractors)")
@@ -45,6 +48,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="render the first planned cycle's motion to a .gif (or .mp4); with "
                         "--servo the first order's servoed pick and what camera 1 saw")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    tables = p.add_argument_group("clearing tables")
+    tables.add_argument("--tables", type=int, default=None, metavar="K",
+                        help="clear K tables instead of orders: look, pick the garment to "
+                             "pick first, place it into its model's box, look again, until "
+                             f"the table is empty (1 to {MAX_TABLES})")
     servo = p.add_argument_group("servoed picks from a conveyor")
     servo.add_argument("--servo", action="store_true",
                        help="pick each garment from a moving conveyor: the hand cameras track "
@@ -68,8 +76,10 @@ def run(args: argparse.Namespace) -> int:
     from photomodel.sim import parse_conditions
     from photomodel.sim._catalogue import expand_garments
 
+    if args.tables is not None:
+        return _run_tables(args)
     try:
-        garments = expand_garments(args.garments)
+        garments = expand_garments(args.garments or "all")
     except ValueError as exc:
         raise InputError("--garments", str(exc)) from None
     try:
@@ -138,6 +148,46 @@ def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> i
         print(f"  {mode:9s} closed {a['closed']}/{a['orders']}, within {s['tolerance_mm']:g} mm "
               f"{a['within_tolerance']}, mean {_fmt(e['mean'])} sd {_fmt(e['sd'])} "
               f"max {_fmt(e['max'])}")
+    return 0
+
+
+def _run_tables(args: argparse.Namespace) -> int:
+    """``cell --tables K --garments N``: piles cleared into one box per model."""
+    from photomodel.cell import ClearConfig, run_clear
+    from photomodel.cli._options import as_option_error, check_int
+    from photomodel.cli._progress import count_progress
+    from photomodel.sim import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS, parse_conditions
+
+    check_int("--tables", args.tables, 1, MAX_TABLES)
+    text = "4" if args.garments is None else str(args.garments).strip()
+    if not text.isdigit():
+        raise InputError("--garments", f"with --tables, expected the number of garments on "
+                                       f"each table ({MIN_TABLE_GARMENTS} to "
+                                       f"{MAX_TABLE_GARMENTS}), got {args.garments!r}")
+    check_int("--garments", int(text), MIN_TABLE_GARMENTS, MAX_TABLE_GARMENTS)
+    condition = "paper" if args.condition == "distractors" else args.condition
+    try:
+        parse_conditions(condition)
+    except ValueError as exc:
+        raise InputError("--conditions", str(exc)) from None
+    layout, settings = layout_and_settings(args)
+    try:
+        config = ClearConfig(tables=args.tables, garments=int(text), condition=condition,
+                             seed=args.seed, tolerance_mm=args.tolerance_mm,
+                             hand_eye=args.hand_eye, layout=layout, pick=settings)
+    except ValueError as exc:
+        raise as_option_error(exc, {"tables": "--tables", "garments": "--garments"},
+                              "cell") from None
+    with count_progress("cell --tables", enabled=sys.stderr.isatty()) as progress:
+        report = run_clear(config, progress)
+    s = report.summary
+    if not _emit(args, report):
+        e = s["grasp_error_mm"]
+        print(f"{s['tables']} tables of {config.garments}: {s['placed']}/{s['garments']} "
+              f"garments placed, {s['cleared']} tables cleared, {s['wrong_box']} in a wrong "
+              f"box, {s['picked_covered']} picks of a covered garment; grasp error mean "
+              f"{_fmt(e['mean'])} max {_fmt(e['max'])} mm; {s['seconds_per_garment']:.2f} s "
+              "a garment")
     return 0
 
 
