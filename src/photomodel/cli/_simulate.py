@@ -37,7 +37,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "scenes are written (target-less conditions such as no-target still "
                         "are)")
     p.add_argument("--scenes", type=int, default=None, metavar="N",
-                   help="scenes per garment and condition, 1 to 10000 (default 1)")
+                   help="scenes per garment and condition, 1 to 10000 (default 1); with "
+                        "--table, scenes per condition")
+    p.add_argument("--table", type=int, default=None, metavar="N",
+                   help="instead of one garment per scene, tables of N garments (2 to 6) "
+                        "drawn from --garments, piled up in a known order, with the "
+                        "distractors of the conditions: scenes/table<N>_<index>/, truth per "
+                        "garment (pose, layer, visible fraction, covered by)")
     p.add_argument("--conditions", default=None,
                    help="comma-separated conditions, or 'all' for every named one "
                         "(default: paper)")
@@ -83,7 +89,7 @@ def _split(text: str) -> list[str]:
 
 _OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
             "conditions": "--conditions", "calibration_views": "--calibration-views",
-            "library": "--catalogue"}
+            "library": "--catalogue", "table": "--table"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -116,6 +122,10 @@ def _run_dataset(args: argparse.Namespace) -> int:
     from photomodel.sim._random_catalogue import MAX_CATALOGUE, catalogue_names
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
+    if args.table is not None:
+        from photomodel.sim._table import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS
+
+        check_int("--table", args.table, MIN_TABLE_GARMENTS, MAX_TABLE_GARMENTS)
     library: tuple[str, ...] = ()
     if args.catalogue is not None:
         library = catalogue_names(check_int("--catalogue", args.catalogue, 1, MAX_CATALOGUE))
@@ -159,11 +169,14 @@ def _run_dataset(args: argparse.Namespace) -> int:
         if conditions == list(CONDITIONS) and args.conditions == "all":
             # Every named condition, but the lens presets need their own datasets.
             conditions = [c for c in conditions if c not in ("no-distortion", "wide-lens")]
+            if args.table is not None:  # a table needs garments
+                conditions = [c for c in conditions if parse_conditions(c).target]
         with count_progress("simulating", sys.stderr.isatty()) as progress:
             summary = write_dataset(args.out, garments, conditions, args.scenes, args.seed,
                                     extra_garments=extra, library=library,
                                     overwrite=args.force, progress=progress,
-                                    calibration_views=args.calibration_views)
+                                    calibration_views=args.calibration_views,
+                                    table=args.table)
     except ValueError as exc:   # an InputError (names its file) passes unchanged
         raise as_option_error(exc, _OPTIONS, "--conditions" if "lens" in str(exc)
                               else str(args.out)) from None
@@ -217,6 +230,7 @@ def _run_sequences(args: argparse.Namespace) -> int:
                           ("--catalogue", args.catalogue is not None),
                           ("--add-garment", bool(args.add_garment)),
                           ("--calibration-views", args.calibration_views != 0),
+                          ("--table", args.table is not None),
                           ("--contact-sheet", args.contact_sheet is not None)):
         if given:
             raise InputError(option, "does not apply with --sequences (it writes sequences, "

@@ -5,7 +5,8 @@ articles with look-alike pairs, or a user's own), the model station, the hand st
 its place in the cell (mount on the PA10, table, photographing pose: :func:`default_hand_eye`,
 :func:`table_in_base`, :func:`photo_configuration`), named nuisances (:data:`CONDITIONS`), an
 exact renderer for flat items and a mesh renderer for wrinkled cloth, :func:`write_dataset`
-(what ``photomodel simulate`` runs) and stereo sequences with per-frame truth for trackers
+(what ``photomodel simulate`` runs), tables of piled garments (:func:`random_table`,
+:class:`TableLayout`, ``simulate --table``) and stereo sequences with per-frame truth for trackers
 (:func:`write_sequences`, ``simulate --sequences``).
 
 Frames follow docs/contracts.md: a texture (and garment) frame has x along the texture's
@@ -96,6 +97,18 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         ],
         "_sheet": ["contact_sheet"],
         "_station": ["station_model"],
+        "_table": [
+            "CLOTH_THICKNESS_MM",
+            "MAX_TABLE_GARMENTS",
+            "MIN_TABLE_GARMENTS",
+            "GarmentTruth",
+            "TableDistractor",
+            "TableGarment",
+            "TableLayout",
+            "TableShot",
+            "random_table",
+            "simulate_table",
+        ],
         "_tables": ["make_table"],
         "_textures": [
             "MODEL_GREEN_BGR",
@@ -125,6 +138,7 @@ __all__ = [
     "BASELINE_MM",
     "CALIBRATION_BOARD",
     "CATALOGUE",
+    "CLOTH_THICKNESS_MM",
     "ConveyorView",
     "CONDITIONS",
     "FABRICS",
@@ -132,6 +146,8 @@ __all__ = [
     "GARMENT_SHAPES",
     "LENSES",
     "MAX_CATALOGUE",
+    "MAX_TABLE_GARMENTS",
+    "MIN_TABLE_GARMENTS",
     "MODEL_DISTANCE_MM",
     "MODEL_GREEN_BGR",
     "OBJECT_KINDS",
@@ -151,6 +167,7 @@ __all__ = [
     "Fold",
     "Garment",
     "GarmentSpec",
+    "GarmentTruth",
     "Layer",
     "PlaneTexture",
     "RenderedView",
@@ -160,6 +177,10 @@ __all__ = [
     "SequencesSummary",
     "SimulatedScene",
     "StereoScene",
+    "TableDistractor",
+    "TableGarment",
+    "TableLayout",
+    "TableShot",
     "Wrinkles",
     "add_sensor_noise",
     "blur",
@@ -200,6 +221,7 @@ __all__ = [
     "plain_fabric",
     "print_fabric",
     "random_stereo_scene",
+    "random_table",
     "render_mesh_layer",
     "render_model_photos",
     "render_stereo_scene",
@@ -208,6 +230,7 @@ __all__ = [
     "scene_rng",
     "simulate_scene",
     "simulate_sequence",
+    "simulate_table",
     "station_model",
     "stripe_fabric",
     "table_in_base",

@@ -7,7 +7,7 @@
     DIR/models/<name>/photo.bmp        the garment on the green plane
     DIR/models/<name>/background.bmp   the plane alone
     DIR/scenes/<id>/right.png          camera 1
-    DIR/scenes/<id>/left.png           camera 2
+    DIR/scenes/<id>/left.png           camera 2 (with ``table``: ids ``table<N>_<index>``)
     DIR/truth.json                     {"<id>": {"model": ..., "T_cam1_model": ..., ...}}
     DIR/dataset.json                   how it was made: seed, garments, conditions, versions
     DIR/calibration/                   chessboard views with their truth (only with
@@ -41,8 +41,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from photomodel.camera import PinholeCamera, save_camera, save_stereo
+from photomodel.camera import PinholeCamera, StereoRig, save_camera, save_stereo
 from photomodel.errors import InputError
 from photomodel.image import write_image
 from photomodel.sim._catalogue import _spec as _garment_spec
@@ -150,6 +151,7 @@ def write_dataset(
     progress: Callable[[int, int, str], None] | None = None,
     calibration_views: int = 0,
     workers: int | None = None,
+    table: int | None = None,
 ) -> DatasetSummary:
     """Simulate a dataset: model photos of each garment and stereo scenes with their truth.
 
@@ -188,6 +190,13 @@ def write_dataset(
         Processes that render the library's model photos (default: :data:`LIBRARY_WORKERS`
         when it holds at least 16 garments not in ``garments``, else 1, in this process).
         The files do not depend on it.
+    table : int, optional
+        Instead of one scene per garment, ``scenes`` scenes per condition of a table with
+        this many garments (2 to 6, :func:`~photomodel.sim.simulate_table`) drawn from
+        ``garments`` (a model may appear twice): ``scenes/table<N>_<index>/`` (with several
+        conditions, ``<condition>_table<N>_<index>``), their truth the pick-first garment's
+        ``model`` and ``T_cam1_model`` plus ``table``, ``garments`` and ``distractors``
+        (docs/contracts.md). A table's images depend on the whole list of garments.
 
     Returns
     -------
@@ -241,6 +250,8 @@ def write_dataset(
                          "simulate them into separate datasets")
     if any(c.target for c in parsed.values()) and not chosen and not shelf:
         raise ValueError("garments: expected at least one")
+    if table is not None:
+        _check_table(table, parsed, chosen)
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise InputError(out, "exists and is not a directory; choose another --out")
     if out.exists() and any(out.iterdir()):
@@ -250,7 +261,9 @@ def write_dataset(
                                   "those: choose another --out")
         if not overwrite:
             raise InputError(out, "already exists and is not empty (use --force to replace it)")
-    total = (len(chosen) + len(shelf) + _count_jobs(parsed, len(chosen), scenes)
+    scene_count = (_count_jobs(parsed, len(chosen), scenes) if table is None
+                   else len(parsed) * scenes)
+    total = (len(chosen) + len(shelf) + scene_count
              + calibration_image_count(calibration_views))
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     created = next((p for p in reversed(out.parents) if not p.exists()), None)
@@ -280,19 +293,27 @@ def write_dataset(
                 progress(done, total, f"model {name}")
         with open(tmp / "truth.json", "w") as truth:   # one scene's entry at a time
             truth.write("{")
-            for scene_id, spec, name, k in _jobs(parsed, list(chosen), scenes):
+            jobs = (_jobs(parsed, list(chosen), scenes) if table is None
+                    else _table_jobs(parsed, table, scenes))
+            for scene_id, spec, name, k in jobs:
                 cond = parsed[spec]
-                target = chosen[name] if name is not None else None
-                shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
-                write_image(tmp / "scenes" / scene_id / "right.png", shot.right_bgr)
-                write_image(tmp / "scenes" / scene_id / "left.png", shot.left_bgr)
-                facts = {
-                    "model": name,
-                    "T_cam1_model": (None if shot.T_cam1_model is None
-                                     else shot.T_cam1_model.tolist()),
-                    "condition": spec,
-                    **shot.info,
-                }
+                if table is not None:
+                    right, left, facts = _table_scene(list(chosen.values()), table, rig, cond,
+                                                      scene_rng(seed, spec, f"table{table}", k),
+                                                      spec)
+                else:
+                    target = chosen[name] if name is not None else None
+                    shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
+                    right, left = shot.right_bgr, shot.left_bgr
+                    facts = {
+                        "model": name,
+                        "T_cam1_model": (None if shot.T_cam1_model is None
+                                         else shot.T_cam1_model.tolist()),
+                        "condition": spec,
+                        **shot.info,
+                    }
+                write_image(tmp / "scenes" / scene_id / "right.png", right)
+                write_image(tmp / "scenes" / scene_id / "left.png", left)
                 # The text dumps_json gives this entry inside the whole dict.
                 entry = dumps_json({scene_id: facts})[1:-3]
                 truth.write(("," if scene_ids else "") + entry)
@@ -311,6 +332,8 @@ def write_dataset(
             write_calibration(tmp, rig, camera, calibration_views, seed,
                               progress=calibration_progress)
         manifest = _manifest(seed, chosen, parsed, scenes)
+        if table is not None:
+            manifest["table"] = int(table)
         if shelf:
             manifest["library"] = _library_manifest(shelf)
         if calibration_views:
@@ -436,6 +459,46 @@ def _jobs(parsed: Mapping[str, Conditions], garments: list[str], scenes: int
         else:
             for k in range(scenes):
                 yield f"{spec}_{k:04d}", spec, None, k
+
+
+def _check_table(table: int, parsed: Mapping[str, Conditions],
+                 chosen: Mapping[str, Garment]) -> None:
+    """ValueError (``table: ...``, ``conditions: ...``, ``garments: ...``) unless a table of
+    ``table`` garments can be simulated under every condition."""
+    from photomodel.sim._table import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS
+
+    if isinstance(table, bool) or not isinstance(table, int) or not (
+            MIN_TABLE_GARMENTS <= table <= MAX_TABLE_GARMENTS):
+        raise ValueError(f"table: expected an integer from {MIN_TABLE_GARMENTS} to "
+                         f"{MAX_TABLE_GARMENTS}, got {table}")
+    empty = [spec for spec, cond in parsed.items() if not cond.target]
+    if empty:
+        raise ValueError(f"conditions: {', '.join(empty)} has no garments; a table needs "
+                         "conditions with a target")
+    if not chosen:
+        raise ValueError("garments: a table needs at least one garment")
+
+
+def _table_jobs(parsed: Mapping[str, Conditions], table: int, scenes: int
+                ) -> Iterator[tuple[str, str, str | None, int]]:
+    """(scene id, condition spec, None, index) of every table scene, in order."""
+    for spec in parsed:
+        prefix = f"table{table}" if len(parsed) == 1 else f"{spec}_table{table}"
+        for k in range(scenes):
+            yield f"{prefix}_{k:04d}", spec, None, k
+
+
+def _table_scene(pool: list[Garment], table: int, rig: StereoRig, cond: Conditions,
+                 rng: np.random.Generator, spec: str
+                 ) -> tuple[NDArray[np.uint8], NDArray[np.uint8], dict[str, Any]]:
+    """Camera 1's and camera 2's images of a random table and its truth entry."""
+    from photomodel.sim._table import simulate_table
+
+    shot, info = simulate_table(pool, table, rig, cond, rng)
+    truth = shot.to_json_dict()
+    facts = {"model": truth.pop("model"), "T_cam1_model": truth.pop("T_cam1_model"),
+             "condition": spec, **info, **truth}
+    return shot.right_bgr, shot.left_bgr, facts
 
 
 def _count_jobs(parsed: Mapping[str, Conditions], garments: int, scenes: int) -> int:

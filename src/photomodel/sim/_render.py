@@ -159,14 +159,22 @@ class RenderedView:
     image : ndarray (H, W, 3) float32
         BGR, 0-255 scale, not rounded or clipped (shading may exceed 255).
     coverage : ndarray (H, W) float32 or None
-        Coverage in [0, 1] of the tracked layer by itself; None when no layer was tracked.
+        Coverage in [0, 1] of the tracked layer by itself; None when no single layer was
+        tracked (``track`` None or a sequence).
     visible : ndarray (H, W) float32 or None
         Visible coverage of the tracked layer (its coverage times what no later layer hides).
+    coverages : tuple of ndarray (H, W) float32
+        With ``track`` a sequence of indices: each tracked layer's coverage, in the order of
+        ``track``; empty otherwise.
+    visibles : tuple of ndarray (H, W) float32
+        With ``track`` a sequence: each tracked layer's visible coverage, in the same order.
     """
 
     image: NDArray[np.float32]
     coverage: NDArray[np.float32] | None = None
     visible: NDArray[np.float32] | None = None
+    coverages: tuple[NDArray[np.float32], ...] = ()
+    visibles: tuple[NDArray[np.float32], ...] = ()
 
 
 def _as_layer(item: Layer | tuple[ArrayLike, PlaneTexture]) -> Layer:
@@ -226,7 +234,7 @@ def render_view_linear(
     items: Sequence[Layer | tuple[ArrayLike, PlaneTexture]] = (),
     *,
     supersample: int = 2,
-    track: int | None = None,
+    track: int | Sequence[int] | None = None,
     light_dir_plane: ArrayLike = DEFAULT_LIGHT_DIR,
     ambient: float = 0.45,
 ) -> RenderedView:
@@ -249,8 +257,10 @@ def render_view_linear(
         Items on top, later ones above earlier ones.
     supersample : int
         Sub-pixels per pixel along each axis; their colours are averaged (anti-aliasing).
-    track : int, optional
-        Index into ``items`` of a layer whose visible coverage is returned.
+    track : int or sequence of int, optional
+        Index into ``items`` of a layer whose coverage and visible coverage are returned
+        (``coverage``, ``visible``); or several indices, each layer's returned in
+        ``coverages`` and ``visibles`` (one render gives every garment's visibility).
     light_dir_plane : (3,)
         Direction towards the (distant) light in the plane frame; shades wrinkles and items
         not parallel to the plane.
@@ -265,8 +275,13 @@ def render_view_linear(
     layers = [_as_layer(item) for item in items]
     for k, layer in enumerate(layers):
         _check_transform(layer.T_plane_item, f"items[{k}]")
-    if track is not None and not 0 <= track < len(layers):
-        raise ValueError(f"track: expected an index into items, got {track}")
+    single = track is None or isinstance(track, int | np.integer)
+    tracked = [] if track is None else [int(track)] if single else [int(k) for k in track]
+    for k in tracked:
+        if not 0 <= k < len(layers):
+            raise ValueError(f"track: expected an index into items, got {track}")
+    if len(set(tracked)) != len(tracked):
+        raise ValueError(f"track: expected distinct indices, got {track}")
     light = np.asarray(light_dir_plane, dtype=np.float64)
     light = light / np.linalg.norm(light)
     rays = pixel_rays(camera, supersample)
@@ -274,10 +289,14 @@ def render_view_linear(
         image = _sample_opaque(background, *_maps(rays, T_cam_plane, background))
     else:
         image = background.sample_premultiplied(*_maps(rays, T_cam_plane, background))[..., :3]
-    coverage = visible = None
+    coverage: dict[int, NDArray[np.float32]] = {}  # of the tracked layers drawn so far
+    visible: dict[int, NDArray[np.float32]] = {}
     for k, layer in enumerate(layers):
         T_cam_item = T_cam_plane @ layer.T_plane_item
         if layer.cull_back and float(T_cam_item[:3, 2] @ T_cam_item[:3, 3]) <= 0.0:
+            if k in tracked and not single:
+                coverage[k] = np.zeros(image.shape[:2], np.float32)
+                visible[k] = coverage[k].copy()
             continue
         if layer.wrinkles is not None:
             sampled, roi = render_mesh_layer(camera, T_cam_item, layer.texture, layer.wrinkles,
@@ -291,19 +310,24 @@ def render_view_linear(
                 sampled[..., :3] *= shade
         alpha = sampled[..., 3:]
         image[roi] = sampled[..., :3] + (1.0 - alpha) * image[roi]
-        if visible is not None:
-            visible[roi] *= 1.0 - alpha[..., 0]
-        if k == track:
-            coverage = np.zeros(image.shape[:2], np.float32)
-            coverage[roi] = alpha[..., 0]
-            visible = coverage.copy()
+        for seen in visible.values():
+            seen[roi] *= 1.0 - alpha[..., 0]
+        if k in tracked:
+            coverage[k] = np.zeros(image.shape[:2], np.float32)
+            coverage[k][roi] = alpha[..., 0]
+            visible[k] = coverage[k].copy()
     if supersample > 1:
         size = (camera.width_px, camera.height_px)
         image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-        if coverage is not None and visible is not None:
-            coverage = cv2.resize(coverage, size, interpolation=cv2.INTER_AREA)
-            visible = cv2.resize(visible, size, interpolation=cv2.INTER_AREA)
-    return RenderedView(image.astype(np.float32), coverage, visible)
+        for masks in (coverage, visible):
+            for k in masks:
+                masks[k] = cv2.resize(masks[k], size, interpolation=cv2.INTER_AREA)
+    image = image.astype(np.float32)
+    if single:
+        k = tracked[0] if tracked else -1
+        return RenderedView(image, coverage.get(k), visible.get(k))
+    return RenderedView(image, coverages=tuple(coverage[k] for k in tracked),
+                        visibles=tuple(visible[k] for k in tracked))
 
 
 def render_view(
