@@ -92,7 +92,7 @@ def test_identify_every_garment(service, cell_data) -> None:
                         files=_pair(cell_data.scene_of("No.3")), timeout=TIMEOUT_S).json()
     assert answer["count"] == 1 and answer["pick_order"] == [0]
     (garment,) = answer["garments"]
-    assert garment["model"] == answer["model"] == "No.3" and garment["pick_rank"] == 0
+    assert garment["model"] == answer["model"] == "No.3" and garment["rank"] == 0
     assert garment["covered_by"] == [] and garment["visible_fraction"] > 0.9
     assert answer["pose_stamped"]["header"]["frame_id"] == "cam1"
     overlay = httpx.get(f"{service.url}/results/{answer['id']}/overlay.png")

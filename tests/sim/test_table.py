@@ -123,8 +123,11 @@ def test_the_truth_entry_keeps_the_single_garment_keys(shot: TableShot) -> None:
     assert entry["model"] == first.model and entry["table"] == 4
     np.testing.assert_allclose(entry["T_cam1_model"], first.T_cam1_model)
     assert [set(g) for g in entry["garments"]] == [
-        {"instance", "model", "T_cam1_model", "layer", "visible_fraction", "covered_by"}] * 4
-    assert entry["garments"][0]["covered_by"] == [1, 2, 3]
+        {"instance", "model", "T_cam1_model", "layer", "visible_fraction", "covered_by",
+         "covered_by_instances"}] * 4
+    assert entry["garments"][0]["covered_by_instances"] == [1, 2, 3]
+    names = {g["instance"]: g["model"] for g in entry["garments"]}
+    assert entry["garments"][0]["covered_by"] == [names[i] for i in (1, 2, 3)]
 
 
 @pytest.mark.parametrize("n", [2, 3, 5, 6])

@@ -117,11 +117,12 @@ class TableGarment:
 
     def to_json_dict(self) -> dict[str, Any]:
         """``locate --json``'s object of its pose plus ``instance``, ``visible_fraction``,
-        ``lies_on``, ``covered_by`` and ``pick_rank``."""
+        ``covered_by`` and ``lies_on`` (instances: indices into ``garments``) and ``rank``
+        (its place in the pick order, 0 first)."""
         out = self.result.to_json_dict()
         out.update(instance=self.instance, visible_fraction=self.visible_fraction,
-                   lies_on=list(self.lies_on), covered_by=list(self.covered_by),
-                   pick_rank=self.pick_rank)
+                   covered_by=list(self.covered_by), lies_on=list(self.lies_on),
+                   rank=self.pick_rank)
         return out
 
 

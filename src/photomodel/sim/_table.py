@@ -190,13 +190,17 @@ class GarmentTruth:
     covered_by: tuple[int, ...]
     covered_by_distractors: tuple[int, ...] = ()
 
-    def to_json_dict(self) -> dict[str, Any]:
-        """``{"instance", "model", "T_cam1_model", "layer", "visible_fraction",
-        "covered_by"}``: the truth file's entry of the garment."""
+    def to_json_dict(self, names: dict[int, str] | None = None) -> dict[str, Any]:
+        """``{"instance", "model", "T_cam1_model", "layer", "visible_fraction", "covered_by",
+        "covered_by_instances"}``: the truth file's entry of the garment; ``covered_by`` names
+        the models lying on it (``names``: instance -> model of the table's garments),
+        ``covered_by_instances`` tells two of one model apart."""
+        names = names or {}
         return {"instance": self.instance, "model": self.model,
                 "T_cam1_model": self.T_cam1_model.tolist(), "layer": self.layer,
                 "visible_fraction": list(self.visible_fraction),
-                "covered_by": list(self.covered_by)}
+                "covered_by": [names.get(i, str(i)) for i in self.covered_by],
+                "covered_by_instances": list(self.covered_by)}
 
 
 @dataclass(frozen=True)
@@ -242,7 +246,8 @@ class TableShot:
                 "visible_fraction": None if first is None else list(first.visible_fraction),
                 "table": len(self.garments),
                 "pick_first": None if first is None else first.instance,
-                "garments": [g.to_json_dict() for g in self.garments],
+                "garments": [g.to_json_dict({h.instance: h.model for h in self.garments})
+                             for g in self.garments],
                 "distractors": [dict(d) for d in self.distractors]}
 
 

@@ -66,7 +66,7 @@ def test_two_garments_apart_are_both_found_and_free(identify_data, identifier) -
     assert all(g.visible_fraction > 0.95 for g in result.garments)
     assert sorted(result.pick_order) == [0, 1]
     doc = result.to_json_dict()
-    assert doc["count"] == 2 and [g["pick_rank"] for g in doc["garments"]] != [0, 0]
+    assert doc["count"] == 2 and [g["rank"] for g in doc["garments"]] != [0, 0]
 
 
 @pytest.mark.parametrize("top", ["No.3", "No.5"])
