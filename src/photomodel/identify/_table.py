@@ -70,6 +70,11 @@ class TableConfig:
         Least share of a candidate's area that no earlier garment explains.
     same_place_mm : float
         A candidate of a model already found within this distance is that garment again.
+    min_new_foreground : float
+        A candidate scoring under the threshold needs at least this share of its area on
+        foreground (pixels unlike the table) that no earlier garment covers: a weak match
+        fitted into the gaps between found garments explains nothing new. (A garment of the
+        table's colours is no foreground; it must then score as a single garment would.)
     """
 
     level: int = 1
@@ -82,6 +87,7 @@ class TableConfig:
     min_agreement: float = 0.5
     min_visible: float = 0.2
     same_place_mm: float = 20.0
+    min_new_foreground: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -393,6 +399,9 @@ def identify_all(
     names = {n: i for i, n in enumerate(bank.names)}
     current = features
     unexplained_mm2 = _unexplained_mm2(regions, explained, level)
+    h1, w1 = explained[0].shape
+    foreground = cv2.resize(regions.foreground.astype(np.uint8), (w1, h1),
+                            interpolation=cv2.INTER_NEAREST) > 0
     min_score = c.min_score if c.min_score is not None else load_threshold().min_score
     hidden = replace(c, min_score=min(min_score, tc.hidden_min_score),
                      min_visible_outline=min(c.min_visible_outline, 0.4))
@@ -414,7 +423,9 @@ def identify_all(
                 covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
             look = appearance(prepared(names[best.model]), best.A_cam1_model, features, rays,
                               covered)
-            if not _accepted(best, look, covered, found, min_score, tc):
+            if not _accepted(best, look, covered, found, min_score, tc) or (
+                    best.score < min_score
+                    and _new_foreground(look, covered, foreground) < tc.min_new_foreground):
                 continue
             found.append((best, look))
             explained = [e | s for e, s in zip(explained, look.shows(tc.agree), strict=True)]
@@ -450,6 +461,13 @@ def _accepted(best: LocateResult, look: Appearance, explained: list[NDArray[np.b
     if share < tc.min_visible or not agreements or np.mean(agreements) < tc.min_agreement:
         return False
     return best.score >= min_score * min(1.0, share)
+
+
+def _new_foreground(look: Appearance, covered: list[NDArray[np.bool_]],
+                    foreground: NDArray[np.bool_]) -> float:
+    """Share of a candidate's area (camera 1) on foreground no earlier garment covers."""
+    return float(np.count_nonzero(look.inside[0] & foreground & ~covered[0])) / max(
+        look.area_px, 1.0)
 
 
 def _unexplained_mm2(regions: Any, explained: list[NDArray[np.bool_]], level: int) -> float:
