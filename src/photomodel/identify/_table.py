@@ -202,6 +202,22 @@ class _Rays:
             self.rays.append(np.concatenate([xy, np.ones((h, w, 1))], axis=2))
 
 
+_RAYS: dict[tuple[int, int, tuple[int, ...]], tuple[Any, _Rays]] = {}
+_RAYS_KEPT = 4
+
+
+def _rays(features: StereoFeatures, level: int) -> _Rays:
+    """The :class:`_Rays` of a rig and level, made once (the last few rigs kept)."""
+    shapes = tuple(s for p in features.pyramids for s in p[level].shape[:2])
+    key = (id(features.rig), level, shapes)
+    held = _RAYS.get(key)
+    if held is None or held[0] is not features.rig:      # an id reused by another rig
+        if len(_RAYS) >= _RAYS_KEPT:
+            _RAYS.pop(next(iter(_RAYS)))
+        held = _RAYS[key] = (features.rig, _Rays(features, level))
+    return held[1]
+
+
 @dataclass
 class Appearance:
     """Where the images show one found garment, per camera at one pyramid level.
@@ -392,7 +408,7 @@ def identify_all(
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     gen = np.random.default_rng(rng)
     level = min(tc.level, features.levels - 1)
-    rays = _Rays(features, level)
+    rays = _rays(features, level)
     regions = scene_regions(features, (float(space.lower[2]), float(space.upper[2])), c.scene)
     found: list[tuple[LocateResult, Appearance]] = []
     explained = [np.zeros(p[level].shape[:2], bool) for p in features.pyramids]
@@ -403,8 +419,10 @@ def identify_all(
     foreground = cv2.resize(regions.foreground.astype(np.uint8), (w1, h1),
                             interpolation=cv2.INTER_NEAREST) > 0
     min_score = c.min_score if c.min_score is not None else load_threshold().min_score
+    # every screened candidate of a round is verified (a find does not end the round: a
+    # garment lying on the one found may share its colours, and painting would hide it)
     hidden = replace(c, min_score=min(min_score, tc.hidden_min_score),
-                     min_visible_outline=min(c.min_visible_outline, 0.4))
+                     min_visible_outline=min(c.min_visible_outline, 0.4), evidence_margin=1.0)
     while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
         result = identify_with_bank(bank, prepared, current, config=hidden, space=space,
                                     rng=int(gen.integers(0, 2**62)))
@@ -423,9 +441,10 @@ def identify_all(
                 covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
             look = appearance(prepared(names[best.model]), best.A_cam1_model, features, rays,
                               covered)
-            if not _accepted(best, look, covered, found, min_score, tc) or (
+            taken = _taken(look, found)
+            if not _accepted(best, look, taken, found, min_score, tc) or (
                     best.score < min_score
-                    and _new_foreground(look, covered, foreground) < tc.min_new_foreground):
+                    and _new_foreground(look, taken, foreground) < tc.min_new_foreground):
                 continue
             found.append((best, look))
             explained = [e | s for e, s in zip(explained, look.shows(tc.agree), strict=True)]
@@ -433,10 +452,9 @@ def identify_all(
         if not added:
             break
         current = painted(features, explained, level)
-        inside = np.zeros_like(explained[0])
-        for _, seen in found:
-            inside |= seen.inside[0]
-        unexplained_mm2 = _unexplained_mm2(regions, [inside], level)
+        # what the found garments show, not their whole outlines: a garment lying wholly on
+        # a found one is inside its outline but still unexplained
+        unexplained_mm2 = _unexplained_mm2(regions, explained, level)
     return _table_result(found, tc, min_score, unexplained_mm2, t0)
 
 
@@ -461,6 +479,22 @@ def _accepted(best: LocateResult, look: Appearance, explained: list[NDArray[np.b
     if share < tc.min_visible or not agreements or np.mean(agreements) < tc.min_agreement:
         return False
     return best.score >= min_score * min(1.0, share)
+
+
+def _taken(look: Appearance, found: list[tuple[LocateResult, Appearance]]
+           ) -> list[NDArray[np.bool_]]:
+    """Pixels of a candidate that a garment found before explains at least as well (inside
+    it, agreeing as much): the rest is the candidate's own, also where it lies on a found
+    garment wholly."""
+    out = []
+    for c in (0, 1):
+        best = np.zeros_like(look.agreement[c])
+        inside = np.zeros_like(look.inside[c])
+        for _, seen in found:
+            best = np.maximum(best, np.where(seen.inside[c], seen.agreement[c], 0.0))
+            inside |= seen.inside[c]
+        out.append(inside & (best >= look.agreement[c]))
+    return out
 
 
 def _new_foreground(look: Appearance, covered: list[NDArray[np.bool_]],
