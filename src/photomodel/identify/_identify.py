@@ -122,6 +122,8 @@ class IdentifyConfig:
         screens lower than in full view).
     wide_trusted_only : bool
         Verify only those of the wider candidates whose coarse scan is trusted.
+    coarse_min_score : float or None
+        Passed to :func:`~photomodel.locate.locate_in_features` (None: its default).
     """
 
     min_score: float | None = None
@@ -140,6 +142,7 @@ class IdentifyConfig:
     sure_score: float = 0.6
     wide_candidates: int = 24
     wide_trusted_only: bool = True
+    coarse_min_score: float | None = None
 
     def __post_init__(self) -> None:
         if self.min_score is not None and not 0.0 <= self.min_score <= 1.0:
@@ -340,7 +343,9 @@ def identify_with_bank(
         r = locate_in_features(models[i], features, space=space,
                                rng=_model_rng(base, bank.names[i], attempt),
                                min_score=min_score, t0=time.perf_counter(), retries=0,
-                               second_look=attempt > 0)
+                               second_look=attempt > 0,
+                               **({} if c.coarse_min_score is None
+                                  else {"coarse_min_score": c.coarse_min_score}))
         if i not in located or r.score > located[i].score:
             located[i] = r
 

@@ -70,6 +70,10 @@ class TableConfig:
         Least share of a candidate's area that no earlier garment explains.
     same_place_mm : float
         A candidate of a model already found within this distance is that garment again.
+    coarse_min_score : float
+        Score from which a locate's search from the coarse scan ends its work (a single
+        garment needs 0.6; a garment partly under others scores less at its true pose, and a
+        second full search would cost a locate more).
     min_new_foreground : float
         A candidate scoring under the threshold needs at least this share of its area on
         foreground (pixels unlike the table) that no earlier garment covers: a weak match
@@ -88,6 +92,7 @@ class TableConfig:
     min_visible: float = 0.2
     same_place_mm: float = 20.0
     min_new_foreground: float = 0.1
+    coarse_min_score: float = 0.45
 
 
 @dataclass(frozen=True)
@@ -422,7 +427,8 @@ def identify_all(
     # every screened candidate of a round is verified (a find does not end the round: a
     # garment lying on the one found may share its colours, and painting would hide it)
     hidden = replace(c, min_score=min(min_score, tc.hidden_min_score),
-                     min_visible_outline=min(c.min_visible_outline, 0.4), evidence_margin=1.0)
+                     min_visible_outline=min(c.min_visible_outline, 0.4), evidence_margin=1.0,
+                     coarse_min_score=tc.coarse_min_score)
     while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
         result = identify_with_bank(bank, prepared, current, config=hidden, space=space,
                                     rng=int(gen.integers(0, 2**62)))

@@ -345,6 +345,7 @@ def locate_in_features(
     pyramid: PyramidConfig | None = None,
     coarse_scan: ScanConfig | None = COARSE_SCAN,
     seeds: Sequence[NDArray[np.float64]] | None = None,
+    coarse_min_score: float = COARSE_MIN_SCORE,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -403,6 +404,9 @@ def locate_in_features(
     seeds : sequence of ndarray (6,), optional
         Pose vectors near the answer (a tracker's last pose): one search from these, at
         ``pyramid``'s coarse level, and no scan.
+    coarse_min_score : float
+        The score from which the coarse scan's search ends the work (default
+        :data:`COARSE_MIN_SCORE`; a garment partly under others scores less in full truth).
 
     Returns
     -------
@@ -445,7 +449,7 @@ def locate_in_features(
         if first.trusted and not second_look:
             search(list(first.poses), config)
     if seeds is None and (not attempts
-                          or attempts[-1][1].score < max(min_score, COARSE_MIN_SCORE)):
+                          or attempts[-1][1].score < max(min_score, coarse_min_score)):
         if scan is None:
             scan = scan_flat_poses(model, features, space.lower, space.upper)
         relit = not scan.trusted
