@@ -102,3 +102,5 @@ def test_the_pick_order_takes_what_nothing_lies_on_best_seen_first() -> None:
     assert pick_order(covered_by, [0.9, 0.6, 0.5, 0.7], [0.8] * 4) == [0, 3, 1, 2]
     # two whose overlap the colours could not settle: the better seen first
     assert pick_order([{1}, {0}], [0.5, 0.8], [0.9, 0.9]) == [1, 0]
+    # ... unless the overlap leans towards the other lying on top
+    assert pick_order([{1}, {0}], [0.5, 0.8], [0.9, 0.9], [0.03, -0.03]) == [0, 1]

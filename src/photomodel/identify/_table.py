@@ -340,11 +340,12 @@ def painted(features: StereoFeatures, masks: list[NDArray[np.bool_]], level: int
 
 # ----------------------------------------------------------------------------- layering
 
-def _on_top(a: Appearance, b: Appearance, config: TableConfig) -> int:
+def _on_top(a: Appearance, b: Appearance, config: TableConfig) -> tuple[int, float]:
     """+1 when ``a`` lies on ``b``, -1 when ``b`` lies on ``a``, 0 when their outlines do not
-    overlap, 2 when they overlap and the colours cannot say which is on top."""
+    overlap, 2 when they overlap and the colours cannot say which is on top; and the mean
+    agreement difference over the overlap (positive: ``a`` looks on top)."""
     if np.count_nonzero(a.inside[0] & b.inside[0]) < config.min_overlap_px:
-        return 0
+        return 0, 0.0
     diffs = []
     for c in (0, 1):
         both = a.inside[c] & b.inside[c]
@@ -352,23 +353,28 @@ def _on_top(a: Appearance, b: Appearance, config: TableConfig) -> int:
             diffs.append(float(np.mean(a.agreement[c][both] - b.agreement[c][both])))
     d = float(np.mean(diffs))
     if d > config.layer_margin:
-        return 1
+        return 1, d
     if d < -config.layer_margin:
-        return -1
-    return 2
+        return -1, d
+    return 2, d
 
 
-def pick_order(covered_by: list[set[int]], visible: list[float], score: list[float]
-               ) -> list[int]:
+def pick_order(covered_by: list[set[int]], visible: list[float], score: list[float],
+               lean: list[float] | None = None) -> list[int]:
     """Instances in the order to pick them: among those nothing left lies on, the best seen
     (visible fraction, then score) first; a set that covers itself all round (colours that
-    could not settle an overlap) is broken at its best-seen garment."""
+    could not settle an overlap) is broken at the garment whose unsettled overlaps lean most
+    towards it lying on top (``lean``: the sum of their agreement differences), then the
+    best seen."""
+    lean = lean or [0.0] * len(visible)
     left = set(range(len(visible)))
     order: list[int] = []
     while left:
         free = [i for i in left if not (covered_by[i] & left)]
-        pool = free or list(left)
-        best = max(pool, key=lambda i: (visible[i], score[i]))
+        if free:
+            best = max(free, key=lambda i: (visible[i], score[i]))
+        else:
+            best = max(left, key=lambda i: (lean[i], visible[i], score[i]))
         order.append(best)
         left.remove(best)
     return order
@@ -527,9 +533,13 @@ def _table_result(found: list[tuple[LocateResult, Appearance]], tc: TableConfig,
     n = len(found)
     covered_by: list[set[int]] = [set() for _ in range(n)]   # for the pick: unsure both ways
     under: list[set[int]] = [set() for _ in range(n)]        # surely on it: hides some of it
+    lean = [0.0] * n
     for i in range(n):
         for j in range(i + 1, n):
-            rel = _on_top(found[i][1], found[j][1], tc)
+            rel, d = _on_top(found[i][1], found[j][1], tc)
+            if rel == 2:
+                lean[i] += d
+                lean[j] -= d
             if rel in (1, 2):
                 covered_by[j].add(i)
             if rel in (-1, 2):
@@ -545,7 +555,7 @@ def _table_result(found: list[tuple[LocateResult, Appearance]], tc: TableConfig,
             seen &= ~found[j][1].inside[0]
         visible.append(min(1.0, float(np.count_nonzero(seen)) / max(look.area_px, 1.0)))
     scores = [r.score for r, _ in found]
-    order = pick_order(covered_by, visible, scores)
+    order = pick_order(covered_by, visible, scores, lean)
     rank = {inst: k for k, inst in enumerate(order)}
     garments = tuple(
         TableGarment(i, found[i][0], visible[i],
