@@ -60,7 +60,7 @@ from photomodel.fitness import (
     scan_flat_poses,
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
-from photomodel.identify._scene import SceneConfig, scene_regions
+from photomodel.identify._scene import SceneConfig, SceneRegions, scene_regions
 from photomodel.locate import COARSE_SCAN, LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
@@ -311,16 +311,21 @@ def identify_with_bank(
     space: SearchSpace | None = None,
     rng: int | np.random.Generator | None = None,
     t0: float | None = None,
+    regions: SceneRegions | None = None,
 ) -> IdentifyResult:
     """:func:`identify_in_features` with the library's descriptors already in a bank, each
     model prepared only when it is verified: ``prepared(i)`` gives bank entry ``i``'s model
-    (:class:`~photomodel.Identifier` loads it from the library then)."""
+    (:class:`~photomodel.Identifier` loads it from the library then); ``regions``: the
+    pair's :func:`scene_regions` when the caller has them (with ``config.scene`` and the
+    search box's depths)."""
     t0 = time.perf_counter() if t0 is None else t0
     c = config or IdentifyConfig()
     min_score = load_threshold().min_score if c.min_score is None else c.min_score
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     base = int(np.random.default_rng(rng).integers(0, 2**62))
-    regions = scene_regions(features, (float(space.lower[2]), float(space.upper[2])), c.scene)
+    if regions is None:
+        regions = scene_regions(features, (float(space.lower[2]), float(space.upper[2])),
+                                c.scene)
     evidence: NDArray[np.float64] = bank.evidence(regions, c.bank)
     order = np.argsort(-evidence, kind="stable")
     top = float(evidence[order[0]]) if len(order) else 0.0

@@ -113,12 +113,19 @@ class SceneRegions:
     foreground: NDArray[np.bool_]
 
 
+def border_band(image: NDArray[np.float32], width_px: int) -> NDArray[np.float32]:
+    """The pixels (N, 3) of an image's border band ``width_px`` wide (at most a quarter of
+    its sides), where the table shows: garments lie inside the view."""
+    h, w = image.shape[:2]
+    b = max(1, min(width_px, h // 4, w // 4))
+    return np.concatenate([image[:b].reshape(-1, 3), image[-b:].reshape(-1, 3),
+                           image[b:-b, :b].reshape(-1, 3), image[b:-b, -b:].reshape(-1, 3)])
+
+
 def _table_mask(image: NDArray[np.float32], config: SceneConfig) -> NDArray[np.bool_]:
     """Foreground (not table) pixels of one level image (H, W, 3)."""
     h, w, _ = image.shape
-    b = max(1, min(config.border_px, h // 4, w // 4))
-    band = np.concatenate([image[:b].reshape(-1, 3), image[-b:].reshape(-1, 3),
-                           image[b:-b, :b].reshape(-1, 3), image[b:-b, -b:].reshape(-1, 3)])
+    band = border_band(image, config.border_px)
     q = np.floor(band / COLOUR_BIN).astype(np.int64)
     q -= q.min(axis=0)
     dims = q.max(axis=0) + 3

@@ -35,8 +35,9 @@ from numpy.typing import NDArray
 from photomodel.fitness import PreparedModel, SampleDrawer, StereoFeatures
 from photomodel.identify._bank import DescriptorBank
 from photomodel.identify._identify import IdentifyConfig, identify_with_bank
-from photomodel.identify._scene import scene_regions
+from photomodel.identify._scene import border_band, scene_regions
 from photomodel.locate import LocateResult, load_threshold
+from photomodel.model._descriptor import HAND_MM_PER_PX
 from photomodel.search import SearchSpace
 
 __all__ = ["Appearance", "TableConfig", "TableGarment", "TableResult", "identify_all"]
@@ -262,7 +263,7 @@ def appearance(prepared: PreparedModel, A_cam1_model: NDArray[np.float64],
     drawer = _drawer(prepared)
     model = prepared.model
     match = features.match
-    mm_per_px = 0.86 * 2**level
+    mm_per_px = HAND_MM_PER_PX * 2**level
     colours = prepared.kept.get(("table_colours", level), lambda: drawer.colours(
         0.0, max(0.5, 0.5 * mm_per_px * drawer.px_per_mm)))
     mask = model.mask.astype(np.float32)
@@ -313,12 +314,8 @@ def appearance(prepared: PreparedModel, A_cam1_model: NDArray[np.float64],
 # ----------------------------------------------------------------------------- painting
 
 def _table_colour(image: NDArray[np.float32], border: int = 4) -> NDArray[np.float32]:
-    """The median feature of an image's border band: the table's colour (garments lie inside
-    the view)."""
-    b = max(1, min(border, image.shape[0] // 4, image.shape[1] // 4))
-    band = np.concatenate([image[:b].reshape(-1, 3), image[-b:].reshape(-1, 3),
-                           image[b:-b, :b].reshape(-1, 3), image[b:-b, -b:].reshape(-1, 3)])
-    return np.median(band, axis=0).astype(np.float32)
+    """The median feature of an image's border band: the table's colour."""
+    return np.median(border_band(image, border), axis=0).astype(np.float32)
 
 
 def painted(features: StereoFeatures, masks: list[NDArray[np.bool_]], level: int
@@ -437,7 +434,8 @@ def identify_all(
                      coarse_min_score=tc.coarse_min_score)
     while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
         result = identify_with_bank(bank, prepared, current, config=hidden, space=space,
-                                    rng=int(gen.integers(0, 2**62)))
+                                    rng=int(gen.integers(0, 2**62)),
+                                    regions=regions if current is features else None)
         if not result.found:
             break
         # every candidate the round located, best first: several garments a round
