@@ -46,6 +46,7 @@ from photomodel.robot import (
     UnreachableError,
     calibrate_hand_eye,
     forward_kinematics,
+    grasp_pose,
     hand_eye_error,
     inverse_kinematics,
     load_arm,
@@ -232,8 +233,7 @@ def run_cycle(config: CellConfig, setup: CellSetup, index: int) -> CycleOutcome:
     T_base_hand = forward_kinematics(setup.arm, setup.q_photo)
     T_true = T_base_hand @ setup.T_hand_cam1_true @ shot.T_cam1_model
     T_est = T_base_hand @ setup.T_hand_cam1 @ result.T_cam1_model
-    gx, gy = config.pick.grasp_point_mm
-    grasp_true = T_true[:3, :3] @ [gx, gy, 0.0] + T_true[:3, 3]
+    grasp_true = grasp_pose(T_true, config.pick.grasp_point_mm)[:3, 3]
     record: dict[str, Any] = {
         "order": index, "garment": garment, "found": bool(result.found),
         "score": float(result.score), "locate_seconds": float(result.seconds),
@@ -242,7 +242,7 @@ def run_cycle(config: CellConfig, setup: CellSetup, index: int) -> CycleOutcome:
         "est_theta_deg": float(np.degrees(in_plane_angle_rad(result.T_cam1_model[:3, :3]))),
     }
     plan = None
-    grasp_est = T_est[:3, :3] @ [gx, gy, 0.0] + T_est[:3, 3]
+    grasp_est = grasp_pose(T_est, config.pick.grasp_point_mm)[:3, 3]
     if not result.found:
         record.update(planned=False, reachable=None, within_limits=None,
                       reason=f"not found (score {result.score:.2f})")

@@ -30,6 +30,7 @@ from photomodel.robot import (
     PickSettings,
     UnreachableError,
     forward_kinematics,
+    grasp_pose,
     plan_pick,
 )
 
@@ -118,11 +119,6 @@ class ClearReport:
         return {"summary": self.summary, "tables": self.tables}
 
 
-def _grasp(T: NDArray[np.float64], grasp_xy_mm: tuple[float, float]) -> NDArray[np.float64]:
-    gx, gy = grasp_xy_mm
-    return T[:3, :3] @ np.array([gx, gy, 0.0]) + T[:3, 3]
-
-
 def _nudged(T: NDArray[np.float64], gen: np.random.Generator, shift_mm: tuple[float, float],
             turn_deg: float) -> NDArray[np.float64]:
     """``T`` (a garment on the table) pushed by a random shift and turn in the table plane."""
@@ -174,8 +170,8 @@ def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: i
             g.T_cam1_model[:3, 3] - T_est[:3, 3])))
         T_base_est = T_base_hand @ setup.T_hand_cam1 @ T_est
         T_base_true = T_base_hand @ setup.T_hand_cam1_true @ truth.T_cam1_model
-        error = _grasp(T_base_est, config.pick.grasp_point_mm) - _grasp(
-            T_base_true, config.pick.grasp_point_mm)
+        error = (grasp_pose(T_base_est, config.pick.grasp_point_mm)[:3, 3]
+                 - grasp_pose(T_base_true, config.pick.grasp_point_mm)[:3, 3])
         record: dict[str, Any] = {
             "look": look, "model": first.model, "true_model": truth.model,
             "instance": truth.instance, "score": first.result.score,

@@ -436,8 +436,7 @@ class _Aim:
                 ) -> dict[str, Any]:
         T_tcp = forward_kinematics(self.setup.arm, q) @ self.T_hand_tcp
         T_true = self.order.T_base_table @ self.order.scene.T_table_model(t_close)
-        gx, gy = self.config.pick.grasp_point_mm
-        grasp_true = T_true[:3, :3] @ [gx, gy, 0.0] + T_true[:3, 3]
+        grasp_true = grasp_pose(T_true, self.config.pick.grasp_point_mm)[:3, 3]
         err = T_tcp[:3, 3] - grasp_true
         norm = float(np.linalg.norm(err))
         out: dict[str, Any] = {
