@@ -82,9 +82,9 @@ def _log(msg: str) -> None:
 
 # ----------------------------------------------------------------------------- data
 
-def trigger_replay(folder: Path, pairs: Sequence[Any], fps: float) -> list[int]:
+def trigger_replay(folder: Path, pairs: Sequence[Any], fps: float) -> None:
     """Lay ``pairs`` (bench_service ``Pair``) out as a replay folder, frame ``k`` = pair
-    ``k``, at ``fps``; the folder is replaced. The indices of the pairs, in frame order."""
+    ``k``, at ``fps``; the folder is replaced."""
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
@@ -94,7 +94,6 @@ def trigger_replay(folder: Path, pairs: Sequence[Any], fps: float) -> list[int]:
         (frame / "right.png").write_bytes(p.right)
         (frame / "left.png").write_bytes(p.left)
     (folder / "meta.json").write_text(json.dumps({"fps": fps}))
-    return [p.seed for p in pairs]
 
 
 def back_and_forth(n: int) -> list[int]:

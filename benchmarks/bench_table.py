@@ -40,6 +40,7 @@ Smoke: ``--tables 2 --clear 1 --conditions paper``
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import time
@@ -106,6 +107,14 @@ def table1(rows: list[tuple[float, float, float, float]]) -> dict[str, Any]:
     return out
 
 
+@functools.cache
+def library(seed: int) -> tuple[Any, ...]:
+    """The 12 catalogue garments' station models (built once a run)."""
+    from photomodel.sim import garment_names, station_model
+
+    return tuple(station_model(n, seed) for n in garment_names())
+
+
 def run_tables(args: argparse.Namespace) -> dict[str, Any]:
     """Recall, false instances, pose success and accuracy, pick order and speed."""
     import photomodel as pm
@@ -117,16 +126,14 @@ def run_tables(args: argparse.Namespace) -> dict[str, Any]:
         parse_conditions,
         random_table,
         scene_rng,
-        station_model,
     )
 
-    names = list(garment_names())
-    library = [station_model(n, args.seed) for n in names]
+    models = library(args.seed)
     rig = hand_stereo_rig()
     T_cam1_table = hand_table_pose(rig)
-    identifier = pm.Identifier(library, rig)
-    locators = {m.name: pm.Locator(m, rig) for m in library}
-    pool = [catalogue_garment(n) for n in names]
+    identifier = pm.Identifier(list(models), rig)
+    locators = {m.name: pm.Locator(m, rig) for m in models}
+    pool = [catalogue_garment(n) for n in garment_names()]
     seen, found_n, false_tables, covered_first, tables = 0, 0, 0, 0, 0
     success, located = 0, 0
     errors: dict[str, list[tuple[float, float, float, float]]] = {b[0]: [] for b in BINS}
@@ -211,18 +218,16 @@ def run_bad_inputs(args: argparse.Namespace) -> dict[str, Any]:
     from photomodel.sim import (
         Layer,
         expose,
-        garment_names,
         hand_stereo_rig,
         hand_table_pose,
         make_table,
         parse_conditions,
         render_view_linear,
-        station_model,
         uniform_plane,
     )
 
     rig = hand_stereo_rig()
-    identifier = pm.Identifier([station_model(n, args.seed) for n in garment_names()], rig)
+    identifier = pm.Identifier(list(library(args.seed)), rig)
     conditions = parse_conditions("paper")
     gen = np.random.default_rng(args.seed)
     table = make_table(conditions.table, gen)
