@@ -312,12 +312,14 @@ def identify_with_bank(
     rng: int | np.random.Generator | None = None,
     t0: float | None = None,
     regions: SceneRegions | None = None,
+    enough: Callable[[list[LocateResult]], bool] | None = None,
 ) -> IdentifyResult:
     """:func:`identify_in_features` with the library's descriptors already in a bank, each
     model prepared only when it is verified: ``prepared(i)`` gives bank entry ``i``'s model
     (:class:`~photomodel.Identifier` loads it from the library then); ``regions``: the
     pair's :func:`scene_regions` when the caller has them (with ``config.scene`` and the
-    search box's depths)."""
+    search box's depths); ``enough``: asked after each verification with every result
+    located so far (verification order), True ends the verifying."""
     t0 = time.perf_counter() if t0 is None else t0
     c = config or IdentifyConfig()
     min_score = load_threshold().min_score if c.min_score is None else c.min_score
@@ -334,6 +336,7 @@ def identify_with_bank(
     located: dict[int, LocateResult] = {}
     scans: dict[int, ScanResult] = {}
     models: dict[int, PreparedModel] = {}
+    done = [False]
 
     def accepted(r: LocateResult) -> bool:
         return r.score >= min_score and not r.visible_outline < c.min_visible_outline
@@ -348,11 +351,13 @@ def identify_with_bank(
         r = locate_in_features(models[i], features, space=space,
                                rng=_model_rng(base, bank.names[i], attempt),
                                min_score=min_score, t0=time.perf_counter(), retries=0,
-                               second_look=attempt > 0,
+                               second_look=attempt > 0, coarse=scans.get(i),
                                **({} if c.coarse_min_score is None
                                   else {"coarse_min_score": c.coarse_min_score}))
         if i not in located or r.score > located[i].score:
             located[i] = r
+        if enough is not None and enough(list(located.values())):
+            done[0] = True
 
     def scan(i: int) -> ScanResult:
         if i not in scans:
@@ -364,6 +369,8 @@ def identify_with_bank(
     def verify_in_turn(group: list[int], *, only_until_found: bool = False,
                        trusted_only: bool = False) -> None:
         for i in group:
+            if done[0]:
+                break
             hit = found(c.sure_score)      # a weak find does not stop the search
             if hit is not None and (only_until_found
                                     or evidence[i] < evidence[hit] - c.evidence_margin):
@@ -379,7 +386,7 @@ def identify_with_bank(
         verify_in_turn([int(i) for i in order[len(chosen): c.wide_candidates]
                         if evidence[i] >= c.min_evidence], trusted_only=c.wide_trusted_only)
     for attempt in range(1, 1 + c.retries):
-        if found() is not None:
+        if found() is not None or done[0]:
             break
         for i in [i for i in chosen if i in located][: c.retry_candidates]:
             verify(i, attempt)

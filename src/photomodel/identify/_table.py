@@ -432,35 +432,54 @@ def identify_all(
     hidden = replace(c, min_score=min(min_score, tc.hidden_min_score),
                      min_visible_outline=min(c.min_visible_outline, 0.4), evidence_margin=1.0,
                      coarse_min_score=tc.coarse_min_score)
-    while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
-        result = identify_with_bank(bank, prepared, current, config=hidden, space=space,
-                                    rng=int(gen.integers(0, 2**62)),
-                                    regions=regions if current is features else None)
-        if not result.found:
-            break
-        # every candidate the round located, best first: several garments a round
-        located = sorted((cand.result for cand in result.candidates
-                          if cand.result is not None and cand.result.found),
-                         key=lambda r: -r.score)
-        added = 0
-        for best in located:
-            if len(found) >= tc.max_garments:
+    # after the first round, what is left is known foreground: its own candidates only, once
+    later = replace(hidden, wide_candidates=0, retries=0)
+    looks: dict[int, Appearance] = {}
+
+    def judge(located: list[LocateResult]
+              ) -> tuple[list[tuple[LocateResult, Appearance]], list[NDArray[np.bool_]]]:
+        """The garments found with a round's located candidates (best first) accepted in
+        turn after those of earlier rounds, and the pixels they explain."""
+        now, shown = list(found), list(explained)
+        for best in sorted((r for r in located if r.found), key=lambda r: -r.score):
+            if len(now) >= tc.max_garments:
                 break
-            covered = [np.zeros_like(e) for e in explained]
-            for _, seen in found:
+            covered = [np.zeros_like(e) for e in shown]
+            for _, seen in now:
                 covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
-            look = appearance(prepared(names[best.model]), best.A_cam1_model, features, rays,
-                              covered)
-            taken = _taken(look, found)
-            if not _accepted(best, look, taken, found, min_score, tc) or (
+            if id(best) not in looks:
+                looks[id(best)] = appearance(prepared(names[best.model]), best.A_cam1_model,
+                                             features, rays, covered)
+            look = looks[id(best)]
+            taken = _taken(look, now)
+            if not _accepted(best, look, taken, now, min_score, tc) or (
                     best.score < min_score
                     and _new_foreground(look, taken, foreground) < tc.min_new_foreground):
                 continue
-            found.append((best, look))
-            explained = [e | s for e, s in zip(explained, look.shows(tc.agree), strict=True)]
-            added += 1
-        if not added:
+            now.append((best, look))
+            shown = [e | s for e, s in zip(shown, look.shows(tc.agree), strict=True)]
+        return now, shown
+
+    def enough(located: list[LocateResult]) -> bool:
+        """Whether the candidates located so far leave too little unexplained for another."""
+        now, shown = judge(located)
+        return (len(now) >= tc.max_garments
+                or _unexplained_mm2(regions, shown, level) < tc.min_unexplained_mm2)
+
+    while len(found) < tc.max_garments and unexplained_mm2 >= tc.min_unexplained_mm2:
+        result = identify_with_bank(bank, prepared, current,
+                                    config=hidden if current is features else later, space=space,
+                                    rng=int(gen.integers(0, 2**62)),
+                                    regions=regions if current is features else None,
+                                    enough=enough)
+        if not result.found:
             break
+        # every candidate the round located, best first: several garments a round
+        now, explained = judge([cand.result for cand in result.candidates
+                                if cand.result is not None])
+        if len(now) == len(found):
+            break
+        found = now
         current = painted(features, explained, level)
         # what the found garments show, not their whole outlines: a garment lying wholly on
         # a found one is inside its outline but still unexplained

@@ -346,6 +346,7 @@ def locate_in_features(
     coarse_scan: ScanConfig | None = COARSE_SCAN,
     seeds: Sequence[NDArray[np.float64]] | None = None,
     coarse_min_score: float = COARSE_MIN_SCORE,
+    coarse: ScanResult | None = None,
 ) -> LocateResult:
     """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
 
@@ -407,6 +408,9 @@ def locate_in_features(
     coarse_min_score : float
         The score from which the coarse scan's search ends the work (default
         :data:`COARSE_MIN_SCORE`; a garment partly under others scores less in full truth).
+    coarse : ScanResult, optional
+        This model's scan of ``features`` with ``coarse_scan`` and ``space``'s bounds, when
+        the caller has it already (``identify`` scans its candidates to order them).
 
     Returns
     -------
@@ -442,7 +446,8 @@ def locate_in_features(
     if seeds is not None:
         search([np.asarray(s, dtype=np.float64) for s in seeds], config)
     elif scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
-        first = scan_flat_poses(model, features, space.lower, space.upper, coarse_scan)
+        first = coarse or scan_flat_poses(model, features, space.lower, space.upper,
+                                          coarse_scan)
         if not first.trusted and coarse_scan.relight:
             first = relight_scan(model, features, space.lower, space.upper, coarse_scan,
                                  keep=first) or first
