@@ -104,3 +104,26 @@ def test_the_pick_order_takes_what_nothing_lies_on_best_seen_first() -> None:
     assert pick_order([{1}, {0}], [0.5, 0.8], [0.9, 0.9]) == [1, 0]
     # ... unless the overlap leans towards the other lying on top
     assert pick_order([{1}, {0}], [0.5, 0.8], [0.9, 0.9], [0.03, -0.03]) == [0, 1]
+    # something not found may lie on 0: it waits behind the free 3, not behind 1 lying on it
+    assert pick_order(covered_by, [0.9, 0.6, 0.5, 0.7], [0.8] * 4,
+                      wait=[True, False, False, False]) == [3, 0, 1, 2]
+
+
+def test_a_garment_under_unknown_cloth_waits(identify_data) -> None:
+    # No.3 is not in this library: lying on No.5 it is foreground that no found garment
+    # shows, so No.5 waits behind No.9, which nothing lies on, although No.9 is partly out of view
+    library = [m for m in identify_data.models if m.name != "No.3"]
+    identifier = Identifier(library, identify_data.rig)
+    right, left, truth = _pile(identify_data, [("No.5", -60, 0, 10), ("No.3", 10, 10, -30),
+                                               ("No.9", 250, 60, 0)])
+    result = identifier.all(right, left, rng=3)
+    found = {g.model: g for g in result.garments}
+    assert set(found) == {"No.5", "No.9"}
+    assert found["No.5"].unknown_on_mm2 >= TableConfig().unknown_on_mm2
+    assert found["No.9"].unknown_on_mm2 < TableConfig().unknown_on_mm2
+    assert result.first is found["No.9"]
+    doc = result.to_json_dict()
+    assert doc["garments"][found["No.5"].instance]["unknown_on_mm2"] > 0
+    # without the check, the better seen No.5 would come first
+    blind = identifier.all(right, left, rng=3, table=TableConfig(unknown_on_mm2=1e9))
+    assert blind.first is not None and blind.first.model == "No.5"

@@ -82,6 +82,10 @@ class TableConfig:
         foreground (pixels unlike the table) that no earlier garment covers: a weak match
         fitted into the gaps between found garments explains nothing new. (A garment of the
         table's colours is no foreground; it must then score as a single garment would.)
+    unknown_on_mm2 : float
+        Foreground inside a garment's outline that neither it nor any found garment shows
+        (cloth that is not in the library, or a garment not found, lying on it), from which
+        it waits in the pick order behind garments without.
     """
 
     level: int = 1
@@ -96,6 +100,7 @@ class TableConfig:
     same_place_mm: float = 20.0
     min_new_foreground: float = 0.1
     coarse_min_score: float = 0.45
+    unknown_on_mm2: float = 1500.0
 
 
 @dataclass(frozen=True)
@@ -116,6 +121,9 @@ class TableGarment:
         Instances lying on it.
     pick_rank : int
         Its place in the pick order (0 = first).
+    unknown_on_mm2 : float
+        Foreground inside its outline that neither it nor another found garment shows:
+        something not found may lie on it, mm^2 on the table (camera 1).
     """
 
     instance: int
@@ -124,6 +132,7 @@ class TableGarment:
     lies_on: tuple[int, ...]
     covered_by: tuple[int, ...]
     pick_rank: int
+    unknown_on_mm2: float = 0.0
 
     @property
     def model(self) -> str:
@@ -131,12 +140,12 @@ class TableGarment:
 
     def to_json_dict(self) -> dict[str, Any]:
         """``locate --json``'s object of its pose plus ``instance``, ``visible_fraction``,
-        ``covered_by`` and ``lies_on`` (instances: indices into ``garments``) and ``rank``
-        (its place in the pick order, 0 first)."""
+        ``covered_by`` and ``lies_on`` (instances: indices into ``garments``), ``rank``
+        (its place in the pick order, 0 first) and ``unknown_on_mm2``."""
         out = self.result.to_json_dict()
         out.update(instance=self.instance, visible_fraction=self.visible_fraction,
                    covered_by=list(self.covered_by), lies_on=list(self.lies_on),
-                   rank=self.pick_rank)
+                   rank=self.pick_rank, unknown_on_mm2=round(self.unknown_on_mm2, 1))
         return out
 
 
@@ -359,21 +368,23 @@ def _on_top(a: Appearance, b: Appearance, config: TableConfig) -> tuple[int, flo
 
 
 def pick_order(covered_by: list[set[int]], visible: list[float], score: list[float],
-               lean: list[float] | None = None) -> list[int]:
+               lean: list[float] | None = None, wait: list[bool] | None = None) -> list[int]:
     """Instances in the order to pick them: among those nothing left lies on, the best seen
-    (visible fraction, then score) first; a set that covers itself all round (colours that
-    could not settle an overlap) is broken at the garment whose unsettled overlaps lean most
+    (visible fraction, then score) first, those that must ``wait`` (something unknown may
+    lie on them) after the others; a set that covers itself all round (colours that could
+    not settle an overlap) is broken at the garment whose unsettled overlaps lean most
     towards it lying on top (``lean``: the sum of their agreement differences), then the
     best seen."""
     lean = lean or [0.0] * len(visible)
+    wait = wait or [False] * len(visible)
     left = set(range(len(visible)))
     order: list[int] = []
     while left:
         free = [i for i in left if not (covered_by[i] & left)]
         if free:
-            best = max(free, key=lambda i: (visible[i], score[i]))
+            best = max(free, key=lambda i: (not wait[i], visible[i], score[i]))
         else:
-            best = max(left, key=lambda i: (lean[i], visible[i], score[i]))
+            best = max(left, key=lambda i: (lean[i], not wait[i], visible[i], score[i]))
         order.append(best)
         left.remove(best)
     return order
@@ -486,7 +497,8 @@ def identify_all(
         # what the found garments show, not their whole outlines: a garment lying wholly on
         # a found one is inside its outline but still unexplained
         unexplained_mm2 = _unexplained_mm2(regions, explained, level)
-    return _table_result(found, tc, min_score, unexplained_mm2, t0)
+    unknown = _unknown_on(found, explained, foreground, regions, tc)
+    return _table_result(found, tc, min_score, unexplained_mm2, unknown, t0)
 
 
 def _accepted(best: LocateResult, look: Appearance, explained: list[NDArray[np.bool_]],
@@ -547,8 +559,28 @@ def _unexplained_mm2(regions: Any, explained: list[NDArray[np.bool_]], level: in
     return float(np.count_nonzero(fg & ~done) * mm_per_px**2)
 
 
+def _unknown_on(found: list[tuple[LocateResult, Appearance]],
+                explained: list[NDArray[np.bool_]], foreground: NDArray[np.bool_],
+                regions: Any, tc: TableConfig) -> list[float]:
+    """Per found garment, the foreground inside its outline (camera 1) that no found
+    garment shows, mm^2: blobs of it, the outline's rim of blur left out."""
+    if not found or not regions.regions:
+        return [0.0] * len(found)
+    h, w = foreground.shape
+    mm_per_px = regions.regions[0].mm_per_px * regions.foreground.shape[1] / w
+    kernel = np.ones((3, 3), np.uint8)
+    out = []
+    for _, look in found:
+        inside = cv2.erode(look.inside[0].astype(np.uint8), kernel, iterations=2) > 0
+        odd = (inside & foreground & ~explained[0]).astype(np.uint8)
+        odd = cv2.morphologyEx(odd, cv2.MORPH_OPEN, kernel)
+        out.append(float(np.count_nonzero(odd)) * mm_per_px**2)
+    return out
+
+
 def _table_result(found: list[tuple[LocateResult, Appearance]], tc: TableConfig,
-                  min_score: float, unexplained_mm2: float, t0: float) -> TableResult:
+                  min_score: float, unexplained_mm2: float, unknown: list[float], t0: float
+                  ) -> TableResult:
     n = len(found)
     covered_by: list[set[int]] = [set() for _ in range(n)]   # for the pick: unsure both ways
     under: list[set[int]] = [set() for _ in range(n)]        # surely on it: hides some of it
@@ -574,12 +606,13 @@ def _table_result(found: list[tuple[LocateResult, Appearance]], tc: TableConfig,
             seen &= ~found[j][1].inside[0]
         visible.append(min(1.0, float(np.count_nonzero(seen)) / max(look.area_px, 1.0)))
     scores = [r.score for r, _ in found]
-    order = pick_order(covered_by, visible, scores, lean)
+    order = pick_order(covered_by, visible, scores, lean,
+                       [u >= tc.unknown_on_mm2 for u in unknown])
     rank = {inst: k for k, inst in enumerate(order)}
     garments = tuple(
         TableGarment(i, found[i][0], visible[i],
                      tuple(sorted(j for j in range(n) if i in covered_by[j])),
-                     tuple(sorted(covered_by[i])), rank[i])
+                     tuple(sorted(covered_by[i])), rank[i], unknown[i])
         for i in range(n))
     return TableResult(garments, tuple(order), float(min_score), unexplained_mm2,
                        time.perf_counter() - t0)
