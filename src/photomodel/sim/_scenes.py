@@ -197,6 +197,9 @@ class SimulatedScene:
     wrinkles : Wrinkles or None
         The target's cloth surface when it is wrinkled: ``wrinkles.surface_mm(m)`` is where
         material point ``m`` of the garment lies in its frame (``T_cam1_model`` maps it on).
+    empty_bgr : (ndarray, ndarray) or None
+        Camera 1's and camera 2's images of the same table, light and distractors without
+        the target (``simulate_scene(..., empty=True)``), for in-place registration.
     """
 
     right_bgr: NDArray[np.uint8]
@@ -204,6 +207,7 @@ class SimulatedScene:
     T_cam1_model: NDArray[np.float64] | None
     info: dict[str, Any]
     wrinkles: Wrinkles | None = None
+    empty_bgr: tuple[NDArray[np.uint8], NDArray[np.uint8]] | None = None
 
 
 POSITION_RANGE_MM: tuple[float, float] = (510.0, 390.0)
@@ -278,6 +282,7 @@ def simulate_scene(
     rng: RngLike = None,
     *,
     placement: tuple[float, float, float] | None = None,
+    empty: bool = False,
 ) -> SimulatedScene:
     """Render one stereo shot of the work table under the given conditions.
 
@@ -300,6 +305,9 @@ def simulate_scene(
         Seed or generator of everything random in the shot.
     placement : (x_mm, y_mm, theta_deg), optional
         Fixed target placement on the table instead of a random one.
+    empty : bool
+        Also render the table without the target (``SimulatedScene.empty_bgr``; the random
+        stream of the shot itself is the same).
 
     Returns
     -------
@@ -383,7 +391,17 @@ def simulate_scene(
             fractions.append(float(view.visible.sum() / max(float(view.coverage.sum()), 1e-9)))
     info["visible_fraction"] = fractions if target is not None else None
     T_cam1_model = None if T_table_garment is None else T_cam1_table @ T_table_garment
-    return SimulatedScene(images[0], images[1], T_cam1_model, info, wrinkles)
+    empty_bgr = None
+    if empty:
+        others = [item for item in items if item is not target_layer]
+        gen_empty = np.random.default_rng(gen.integers(0, 2**62))
+        empty_bgr = tuple(
+            expose(render_view_linear(camera, T_cam_cam1 @ T_cam1_table, table, others,
+                                      light_dir_plane=light).image, camera, conditions,
+                   gen_empty)
+            for camera, T_cam_cam1 in ((rig.cam1, np.eye(4)), (rig.cam2, rig.T_cam2_cam1)))
+    return SimulatedScene(images[0], images[1], T_cam1_model, info, wrinkles,
+                          empty_bgr)  # type: ignore[arg-type]
 
 
 def _occluder(kind: str, target: Garment, T_table_garment: NDArray[np.float64],
