@@ -1,7 +1,8 @@
 """Identification: which photo-model of a library lies on the table, and its pose, or none.
 
-The garment-like regions of the pair (:mod:`._scene`) are compared with every model's
-descriptor (:mod:`._bank`: milliseconds for thousands of models), the best-screened are
+The garment-like regions of the pair (:func:`~photomodel.fitness.scene_regions`) are
+compared with every model's descriptor (:mod:`._bank`: milliseconds for thousands of
+models), the best-screened are
 located with the default ``soft`` method in features computed once (:mod:`._identify`), and
 the best is accepted against the threshold calibrated on simulated scenes
 (:mod:`photomodel.locate._threshold`: the library's, the user's or the package's
@@ -12,6 +13,7 @@ the best is accepted against the threshold calibrated on simulated scenes
 
 import lazy_loader
 
+from photomodel.fitness import Region, SceneConfig, SceneRegions, scene_regions
 from photomodel.locate._threshold import (
     THRESHOLD_FILE,
     Threshold,
@@ -34,7 +36,6 @@ __getattr__, _dir, _ = lazy_loader.attach(
             "identify_in_features",
             "identify_with_bank",
         ],
-        "_scene": ["Region", "SceneConfig", "SceneRegions", "scene_regions"],
         "_table": ["TableConfig", "TableGarment", "TableResult", "identify_all"],
     },
 )

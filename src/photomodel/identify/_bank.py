@@ -40,7 +40,7 @@ from numba import prange
 from numpy.typing import NDArray
 
 from photomodel._jit import njit
-from photomodel.identify._scene import SceneRegions
+from photomodel.fitness import SceneRegions
 from photomodel.model._descriptor import (
     COLOUR_BIN,
     COLOUR_GRID_LOW,

@@ -55,12 +55,14 @@ from photomodel.camera import StereoRig
 from photomodel.fitness import (
     PreparedModel,
     ScanResult,
+    SceneConfig,
+    SceneRegions,
     StereoFeatures,
     as_prepared,
     scan_flat_poses,
+    scene_regions,
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
-from photomodel.identify._scene import SceneConfig, SceneRegions, scene_regions
 from photomodel.locate import COARSE_SCAN, LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel

@@ -32,10 +32,15 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel.fitness import PreparedModel, SampleDrawer, StereoFeatures
+from photomodel.fitness import (
+    PreparedModel,
+    SampleDrawer,
+    StereoFeatures,
+    border_band,
+    scene_regions,
+)
 from photomodel.identify._bank import DescriptorBank
 from photomodel.identify._identify import IdentifyConfig, identify_with_bank
-from photomodel.identify._scene import border_band, scene_regions
 from photomodel.locate import LocateResult, load_threshold
 from photomodel.model._descriptor import HAND_MM_PER_PX
 from photomodel.search import SearchSpace

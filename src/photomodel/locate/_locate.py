@@ -153,6 +153,9 @@ class LocateResult:
     """Outline evidence where the model's inside agrees
     (:attr:`~photomodel.fitness.ScoreTerms.visible_outline`), in [0, 1]; NaN when not
     measured."""
+    scale: float | None = None
+    """For a model of unknown scale, the factor measured from this pair (real millimetres per
+    nominal millimetre; :func:`~photomodel.locate.locate_unknown_scale`); None otherwise."""
 
     @property
     def position_mm(self) -> NDArray[np.float64]:
@@ -194,7 +197,8 @@ class LocateResult:
         return None if blur is None else float(blur)
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The ``locate --json`` object (docs/contracts.md), plus search details."""
+        """The ``locate --json`` object (docs/contracts.md), plus search details; ``scale``
+        only for a model of unknown scale."""
         return {
             "model": self.model,
             "found": self.found,
@@ -211,7 +215,7 @@ class LocateResult:
             "optics_blur_mm": self.optics_blur_mm,
             "strain": None if self.strain is None else self.strain.tolist(),
             "edge_evidence": None if np.isnan(self.edge_evidence) else self.edge_evidence,
-        }
+        } | ({} if self.scale is None else {"scale": self.scale})
 
 
 def make_optimizer(name: OptimizerName, space: SearchSpace,

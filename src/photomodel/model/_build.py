@@ -278,46 +278,9 @@ def build_photo_model(
                                                             f"{problem}")
         warnings.warn(InputWarning(photo_source, problem), stacklevel=2)
 
-    def to_model(uv: NDArray[np.float64]) -> NDArray[np.float64]:
-        xy = camera.undistort_pixels(uv) * distance_mm - centroid
-        return np.column_stack([xy, np.zeros(len(xy))])
-
-    def to_pixels(xy_model: NDArray[np.float64]) -> NDArray[np.float64]:
-        pts = np.column_stack([xy_model[:, :2] + centroid, np.full(len(xy_model), distance_mm)])
-        return camera.project(pts)
-
-    step_px = cfg.step_mm * px_per_mm
-    dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-
-    # S_in: grid inside, clear of the outline ring, plus the ring itself.
-    inset_px = cfg.edge_inset_mm * px_per_mm + 0.5
-    ring_in = _rings(dist_in >= inset_px, to_model, cfg.step_mm)
-    xy_model = xy_mask - centroid
-    lo = (xy_model.min(axis=0) // cfg.step_mm) * cfg.step_mm
-    hi = xy_model.max(axis=0)
-    gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + cfg.step_mm, cfg.step_mm),
-                         np.arange(lo[1], hi[1] + cfg.step_mm, cfg.step_mm))
-    grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
-    uv_grid = to_pixels(grid)
-    keep = _lookup(dist_in, uv_grid) >= inset_px + 0.5 * step_px
-    points_in = np.concatenate([grid[keep], ring_in])
-    uv_in = to_pixels(points_in)
+    points_in, points_out, uv_in, uv_out, outline_uv, outline = _sample(
+        mask, camera, distance_mm, centroid, cfg)
     hsv_in = bgr_to_hsv(sample_bilinear(smooth_photo, uv_in))
-
-    # S_out: offset rings in the band outside the outline.
-    radii_mm = cfg.band_gap_mm + np.arange(0.0, cfg.band_width_mm + 1e-9, cfg.step_mm)
-    rings_out = [_rings(dist_out <= r * px_per_mm + 0.5, to_model, cfg.step_mm, outer=True)
-                 for r in radii_mm]
-    points_out = np.concatenate(rings_out) if rings_out else np.zeros((0, 3))
-    if min(len(points_in), len(points_out)) < MIN_POINTS:
-        raise ValueError(f"step_mm: a pitch of {cfg.step_mm:g} mm leaves {len(points_in)} points "
-                         f"inside and {len(points_out)} around this garment (at least "
-                         f"{MIN_POINTS} each are needed); choose a smaller pitch")
-    uv_out = to_pixels(points_out)
-
-    outline_uv = _largest_contour(mask)
-    outline = to_model(outline_uv)
 
     x0, y0 = max(uu.min() - cfg.crop_margin_px, 0), max(vv.min() - cfg.crop_margin_px, 0)
     x1, y1 = min(uu.max() + cfg.crop_margin_px + 1, w), min(vv.max() + cfg.crop_margin_px + 1, h)
@@ -349,6 +312,56 @@ def build_photo_model(
         meta=meta,
     )
     return BuildResult(model, mask.astype(bool), uv_in, uv_out, outline_uv, quality)
+
+
+def _sample(mask: NDArray[np.uint8], camera: PinholeCamera, distance_mm: float,
+            centroid: NDArray[np.float64], cfg: BuildConfig
+            ) -> tuple[NDArray[np.float64], ...]:
+    """S_in, S_out and the outline of a silhouette (steps 5-7 of the module docstring):
+    ``points_in``, ``points_out`` (model frame, mm), their pixels ``uv_in``, ``uv_out``,
+    the outline's pixels and its model points. ``centroid`` (2,): the model origin on the
+    plane in the camera frame, mm."""
+    px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
+
+    def to_model(uv: NDArray[np.float64]) -> NDArray[np.float64]:
+        xy = camera.undistort_pixels(uv) * distance_mm - centroid
+        return np.column_stack([xy, np.zeros(len(xy))])
+
+    def to_pixels(xy_model: NDArray[np.float64]) -> NDArray[np.float64]:
+        pts = np.column_stack([xy_model[:, :2] + centroid, np.full(len(xy_model), distance_mm)])
+        return camera.project(pts)
+
+    step_px = cfg.step_mm * px_per_mm
+    dist_in = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    dist_out = cv2.distanceTransform(1 - mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+    # S_in: grid inside, clear of the outline ring, plus the ring itself.
+    inset_px = cfg.edge_inset_mm * px_per_mm + 0.5
+    ring_in = _rings(dist_in >= inset_px, to_model, cfg.step_mm)
+    vv, uu = np.nonzero(mask)
+    xy_model = to_model(np.stack([uu, vv], axis=-1).astype(np.float64))[:, :2]
+    lo = (xy_model.min(axis=0) // cfg.step_mm) * cfg.step_mm
+    hi = xy_model.max(axis=0)
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + cfg.step_mm, cfg.step_mm),
+                         np.arange(lo[1], hi[1] + cfg.step_mm, cfg.step_mm))
+    grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+    uv_grid = to_pixels(grid)
+    keep = _lookup(dist_in, uv_grid) >= inset_px + 0.5 * step_px
+    points_in = np.concatenate([grid[keep], ring_in])
+    uv_in = to_pixels(points_in)
+
+    # S_out: offset rings in the band outside the outline.
+    radii_mm = cfg.band_gap_mm + np.arange(0.0, cfg.band_width_mm + 1e-9, cfg.step_mm)
+    rings_out = [_rings(dist_out <= r * px_per_mm + 0.5, to_model, cfg.step_mm, outer=True)
+                 for r in radii_mm]
+    points_out = np.concatenate(rings_out) if rings_out else np.zeros((0, 3))
+    if min(len(points_in), len(points_out)) < MIN_POINTS:
+        raise ValueError(f"step_mm: a pitch of {cfg.step_mm:g} mm leaves {len(points_in)} points "
+                         f"inside and {len(points_out)} around this garment (at least "
+                         f"{MIN_POINTS} each are needed); choose a smaller pitch")
+    uv_out = to_pixels(points_out)
+    outline_uv = _largest_contour(mask)
+    return points_in, points_out, uv_in, uv_out, outline_uv, to_model(outline_uv)
 
 
 def _log_opponent(image: NDArray[np.uint8]) -> NDArray[np.float32]:
