@@ -1,10 +1,13 @@
-"""``photomodel build``: photo + background + camera -> model file and preview PNG."""
+"""``photomodel build``: a model file and preview PNG from a station photo (photo, background,
+camera), from the hand cameras' stereo pair where the garment lies (``--stereo``), or from a
+photo of unknown scale (``--scale unknown``)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 from photomodel.errors import InputError
 
@@ -25,11 +28,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("build", help="build a photo-model from a garment photo",
                        description="Build a photo-model (paper sec. 2.2) from a photo of the "
-                                   "garment on the green plane and a photo of the plane alone.")
-    p.add_argument("--photo", required=True, type=Path, help="garment on the plane (BMP, PNG..)")
-    p.add_argument("--background", required=True, type=Path, help="the plane alone")
-    p.add_argument("--camera", required=True, type=Path,
+                                   "garment on the green plane and a photo of the plane alone "
+                                   "(--photo --background --camera); from the hand cameras' "
+                                   "stereo pair of the garment where it lies (--stereo --right "
+                                   "--left [--empty-right --empty-left]); or from a photo of "
+                                   "unknown scale (--scale unknown --photo [--background]), "
+                                   "whose first locate measures its scale.")
+    p.add_argument("--photo", type=Path, help="garment on the plane (BMP, PNG..)")
+    p.add_argument("--background", type=Path, help="the plane alone")
+    p.add_argument("--camera", type=Path,
                    help="model camera calibration (OpenCV YAML/XML/JSON or ROS camera_info)")
+    p.add_argument("--stereo", type=Path,
+                   help="in place: the hand cameras' stereo calibration")
+    p.add_argument("--right", type=Path, help="in place: camera 1's image of the garment")
+    p.add_argument("--left", type=Path, help="in place: camera 2's image of the garment")
+    p.add_argument("--empty-right", type=Path,
+                   help="in place: camera 1's image of the table without the garment")
+    p.add_argument("--empty-left", type=Path,
+                   help="in place: camera 2's image of the table without the garment")
+    p.add_argument("--scale", choices=("known", "unknown"), default="known",
+                   help="unknown: a photo with no calibration; the first locate measures the "
+                        "scale (photomodel models set-scale stores it)")
     p.add_argument("--distance-mm", type=float, default=None,
                    help="camera-to-plane distance (default: the camera file's distance_mm, "
                         "else 400)")
@@ -55,13 +74,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from photomodel.camera import load_camera, load_distance_mm
     from photomodel.cli._options import as_option_error, check_float
-    from photomodel.image import read_color_image, write_image
     from photomodel.library import check_model_name
-    from photomodel.model import BuildConfig, build_photo_model, render_preview, save_model
+    from photomodel.model import BuildConfig
     from photomodel.model._build import MAX_DISTANCE_MM
 
+    mode = _mode(args)
     if args.out.is_dir():
         raise InputError(args.out, "is a directory; --out names the model file to write")
     if args.distance_mm is not None:
@@ -76,6 +94,56 @@ def run(args: argparse.Namespace) -> int:
         raise as_option_error(exc, _OPTIONS, "build") from None
     if args.name is not None:
         check_model_name(args.name, "--name")
+    name = args.name or (args.out.stem if args.out.suffix.lower() in MODEL_SUFFIXES
+                         else args.out.name)
+    built, photo, extra = {"station": _station, "in place": _in_place,
+                           "unknown scale": _unknown_scale}[mode](args, config, name)
+    _write(args, built, photo, extra)
+    return 0
+
+
+def _mode(args: argparse.Namespace) -> str:
+    """Which build the options ask for; a one-line error for a mix or a missing one."""
+    stereo = [f for f in ("stereo", "right", "left", "empty_right", "empty_left")
+              if getattr(args, f) is not None]
+    if stereo:
+        if args.scale == "unknown" or args.photo or args.background or args.camera:
+            raise InputError("--stereo", "builds in place from the stereo pair: give "
+                                         "--stereo --right --left (and --empty-right "
+                                         "--empty-left), not --photo, --background, --camera "
+                                         "or --scale unknown")
+        for flag in ("stereo", "right", "left"):
+            if getattr(args, flag) is None:
+                raise InputError(f"--{flag}", "missing: a build in place needs --stereo, "
+                                              "--right and --left")
+        if (args.empty_right is None) != (args.empty_left is None):
+            raise InputError("--empty-left" if args.empty_left is None else "--empty-right",
+                             "missing: give both views of the empty table, or neither")
+        return "in place"
+    if args.photo is None:
+        raise InputError("--photo", "missing: give --photo (with --background and --camera, "
+                                    "or --scale unknown), or build in place with --stereo "
+                                    "--right --left")
+    if args.scale == "unknown":
+        if args.camera is not None or args.distance_mm is not None:
+            raise InputError("--camera" if args.camera is not None else "--distance-mm",
+                             "a photo of unknown scale has no calibration; drop it, or "
+                             "build with --scale known")
+        return "unknown scale"
+    for flag in ("background", "camera"):
+        if getattr(args, flag) is None:
+            raise InputError(f"--{flag}", "missing: a station build needs --photo, "
+                                          "--background and --camera (or --scale unknown)")
+    return "station"
+
+
+def _station(args: argparse.Namespace, config: Any, name: str) -> tuple[Any, Any, str]:
+    from photomodel.camera import load_camera, load_distance_mm
+    from photomodel.cli._options import as_option_error
+    from photomodel.image import read_color_image
+    from photomodel.model import build_photo_model
+    from photomodel.model._build import MAX_DISTANCE_MM
+
     camera = load_camera(args.camera)
     distance = args.distance_mm if args.distance_mm is not None else load_distance_mm(args.camera)
     distance = 400.0 if distance is None else distance
@@ -84,19 +152,93 @@ def run(args: argparse.Namespace) -> int:
                                       f"{MAX_DISTANCE_MM:g} mm, got {distance:g}")
     photo = read_color_image(args.photo)
     background = read_color_image(args.background)
-    name = args.name or (args.out.stem if args.out.suffix.lower() in MODEL_SUFFIXES
-                         else args.out.name)
     try:
-        built = build_photo_model(photo, background, camera, distance, name=name, config=config,
+        built = build_photo_model(photo, background, camera, distance, name=name,
+                                  config=config,
                                   photo_source=args.photo, background_source=args.background)
     except ValueError as exc:   # an InputError (names its file) passes unchanged
         raise as_option_error(exc, _OPTIONS, str(args.photo)) from None
+    return built, photo, ""
+
+
+def _in_place(args: argparse.Namespace, config: Any, name: str
+              ) -> tuple[Any, Any, str]:
+    import warnings
+
+    from photomodel.camera import load_stereo
+    from photomodel.cli._options import as_option_error
+    from photomodel.image import read_color_image
+    from photomodel.model import build_in_place
+
+    rig = load_stereo(args.stereo)
+    views = [read_color_image(p) if p is not None else None
+             for p in (args.right, args.left, args.empty_right, args.empty_left)]
+    sources = tuple(str(p) for p in (args.right, args.left, args.empty_right or "empty-right",
+                                     args.empty_left or "empty-left"))
+    try:
+        with warnings.catch_warnings():      # the table is no green plane: reported below
+            warnings.simplefilter("ignore")
+            made = build_in_place(rig, views[0], views[1],
+                                  empty_right_bgr=views[2], empty_left_bgr=views[3],
+                                  name=name, config=config,
+                                  sources=sources)
+    except ValueError as exc:
+        raise as_option_error(exc, _OPTIONS, str(args.right)) from None
+    plane = made.plane
+    extra = (f"; in place: {made.mm_per_px:.2f} mm/px, table plane at "
+             f"{plane.distance_mm:.1f} mm (stereo rms {plane.rms_mm:.2f} mm, "
+             f"{plane.points} pixels), garment wholly in view")
+    return made.built, made.orthophoto_bgr, extra
+
+
+def _unknown_scale(args: argparse.Namespace, config: Any, name: str
+                   ) -> tuple[Any, Any, str]:
+    import warnings
+
+    from photomodel.cli._options import as_option_error
+    from photomodel.image import read_color_image
+    from photomodel.model import build_unknown_scale
+
+    photo = read_color_image(args.photo)
+    background = read_color_image(args.background) if args.background else None
+    if background is not None and background.shape != photo.shape:
+        raise InputError(args.background, f"size {background.shape[1]}x{background.shape[0]} "
+                                          f"differs from the photo's {photo.shape[1]}x"
+                                          f"{photo.shape[0]}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            built = build_unknown_scale(photo, background, name=name,
+                                        config=config,
+                                        photo_source=args.photo,
+                                        background_source=args.background or "background")
+    except ValueError as exc:
+        raise as_option_error(exc, _OPTIONS, str(args.photo)) from None
+    scale = built.model.meta["scale"]
+    mm, shrink = scale["nominal_mm_per_px"], scale["photo_shrink"]
+    if shrink < 1.0:                     # the build reduced the photo: its preview too
+        import cv2
+
+        h, w = photo.shape[:2]
+        photo = cv2.resize(photo, (max(1, round(w * shrink)), max(1, round(h * shrink))),
+                           interpolation=cv2.INTER_AREA)
+    return built, photo, (f"; scale unknown (nominal {mm:.3f} mm/px): its first locate "
+                         "measures it, then `photomodel models set-scale` stores it")
+
+
+def _write(args: argparse.Namespace, built: Any, photo: Any, extra: str) -> None:
+    """Save the model (and its preview) and print one line about it."""
+    from photomodel.image import write_image
+    from photomodel.model import render_preview, save_model
+
+    model = built.model
     preview = None if args.no_preview else render_preview(photo, built)
-    path = save_model(built.model, args.out)
+    path = save_model(model, args.out)
     if preview is not None:
         write_image(path.with_suffix(".preview.png"), preview)
-    m = built.model
-    quality = "" if built.quality is None else f", {built.quality.summary()}"
-    print(f"{path}: model '{m.name}', {m.size_mm[0]:.0f} x {m.size_mm[1]:.0f} mm, "
-          f"area {m.area_mm2:.0f} mm^2, S_in {m.n_in} points, S_out {m.n_out} points{quality}")
-    return 0
+    quality = built.quality
+    text = "" if quality is None else f", {quality.summary()}"
+    unit = "mm" if "scale" not in model.meta else "nominal mm"
+    print(f"{path}: model '{model.name}', {model.size_mm[0]:.0f} x {model.size_mm[1]:.0f} "
+          f"{unit}, area {model.area_mm2:.0f} {unit}^2, S_in {model.n_in} points, S_out "
+          f"{model.n_out} points{text}{extra}")

@@ -155,6 +155,9 @@ def format_result(result: LocateResult) -> str:
         exx, eyy, exy = 100.0 * result.strain
         lines.append(f"strain      x {exx:+.2f} %  y {eyy:+.2f} %  shear {exy:+.2f} % "
                      "(the garment against its photo)")
+    if result.scale is not None:
+        lines.append(f"scale       {result.scale:.5f} mm per nominal mm, measured from this pair "
+                     "(store it: photomodel models set-scale)")
     lines.append(f"search      {s.iterations} iterations, {s.evaluations} evaluations, "
                  f"{result.seconds:.2f} s ({s.stop_reason})")
     return "\n".join(lines)

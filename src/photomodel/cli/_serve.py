@@ -133,7 +133,12 @@ def _start_opcua(cell: Any, host: str, port: int, token: str | None) -> Any:
         def identify() -> dict[str, Any]:
             return cell.threads.call(cell.trigger_identify)
 
-        face = OpcUaFace(locate, identify, token=token,
+        def register(name: str) -> dict[str, Any]:
+            from photomodel.service._register import register_from_camera
+
+            return cell.threads.call(partial(register_from_camera, cell, name))
+
+        face = OpcUaFace(locate, identify, register=register, token=token,
                          endpoint=f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}"
                                   "/photomodel/")
     except ImportError as exc:

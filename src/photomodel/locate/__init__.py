@@ -16,6 +16,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "PaperMethod",
             "locate",
             "locate_in_features",
+    "locate_unknown_scale",
             "make_optimizer",
             "paper_method",
             "soft_score",
@@ -23,6 +24,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_locator": ["Locator"],
         "_overlay": ["draw_overlay", "draw_table_overlay"],
         "_prepare": ["prepare_model"],
+        "_scale": ["locate_unknown_scale"],
         "_threshold": [
             "THRESHOLD_FILE",
             "Threshold",

@@ -23,8 +23,10 @@ from photomodel.locate._locate import (
     paper_method,
 )
 from photomodel.locate._prepare import prepare_model
+from photomodel.locate._scale import locate_unknown_scale
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
+from photomodel.model._scale import resampled_model, scale_known
 from photomodel.search import PyramidConfig, SearchSpace
 
 __all__ = ["Locator"]
@@ -57,6 +59,11 @@ class Locator:
         :func:`~photomodel.locate.threshold_path`: the user's calibrated file, else the
         package's).
 
+    A model of unknown scale (``photomodel build --scale unknown``) is located with its
+    scale searched (:func:`~photomodel.locate.locate_unknown_scale`) until a call finds it;
+    the Locator then keeps that scale (:attr:`scale`), and later calls are ordinary. Every
+    result of such a model carries ``scale``.
+
     Examples
     --------
     >>> locate = Locator(model, rig)                       # doctest: +SKIP
@@ -72,6 +79,8 @@ class Locator:
         if not isinstance(rig, StereoRig):
             raise TypeError(f"rig: expected a StereoRig, got {type(rig).__name__}")
         self.model = model
+        self.nominal: PhotoModel | None = None if scale_known(model) else model
+        self.scale: float | None = None
         self.rig = rig
         self.space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
         self.method = method
@@ -82,8 +91,10 @@ class Locator:
             min_score = (self._paper.min_score if self._paper is not None
                          else load_threshold(threshold).min_score)
         self.min_score = float(min_score)
+        if self.nominal is not None and self._paper is not None:
+            raise ValueError("method: a model of unknown scale needs the default method")
         self.prepared = PreparedModel(model)
-        if self._paper is None:
+        if self._paper is None and self.nominal is None:
             self._prepare()
 
     def _prepare(self) -> None:
@@ -121,6 +132,10 @@ class Locator:
         -------
         LocateResult
         """
+        if self.nominal is not None:
+            t0 = time.perf_counter()
+            return self.locate_features(StereoFeatures(self.rig, right_bgr, left_bgr), rng,
+                                        start=start, t0=t0)
         if start is None or self._paper is not None:
             if start is not None:
                 raise ValueError("start: a start pose needs the default method")
@@ -143,6 +158,15 @@ class Locator:
             raise ValueError("locate_features: the paper's method works on images, not "
                              "features")
         options.setdefault("min_score", self.min_score)
+        if self.nominal is not None and self.scale is None:
+            result = locate_unknown_scale(self.nominal, features, space=self.space, rng=rng,
+                                          min_score=options["min_score"],
+                                          t0=options.get("t0"))
+            if result.found and result.scale is not None:
+                self.scale = result.scale
+                self.model = resampled_model(self.nominal, result.scale)
+                self.prepared = PreparedModel(self.model)
+            return result
         if start is not None:
             T = np.asarray(start, dtype=np.float64)
             if T.shape != (4, 4) or not np.all(np.isfinite(T)):
@@ -151,8 +175,9 @@ class Locator:
             seed = self.space.clip(x0[None])[0]
             options.update(retries=0, coarse_scan=None,
                            pyramid=replace(PyramidConfig(), coarse_level=2), seeds=[seed])
-        return locate_in_features(self.prepared, features, space=self.space, rng=rng,
-                                  **options)
+        result = locate_in_features(self.prepared, features, space=self.space, rng=rng,
+                                    **options)
+        return result if self.scale is None else replace(result, scale=self.scale)
 
     def __repr__(self) -> str:
         method = self.method if isinstance(self.method, str) else "PaperMethod(...)"

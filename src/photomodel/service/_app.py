@@ -33,6 +33,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
+from photomodel.service._register import register_from_camera, register_in_place
 from photomodel.service._source import SourceError
 from photomodel.service._track_socket import track_endpoint
 
@@ -430,9 +431,22 @@ def create_app(cell: CellService, *, warm: bool = True,
     async def add_model(request: Request) -> Response:
         form = await _form(request, limit)
         name = _field(form, "name", required=True)
-        photo, background = await _file(form, "photo"), await _file(form, "background")
-        summary = await work(cell.register, name, photo, background,
-                             _float(form, "distance_mm"), replace=_bool(form, "replace"))
+        replace = _bool(form, "replace")
+        source = _field(form, "source")
+        if source is not None:                   # the garment where the cameras see it
+            if source != "camera":
+                raise InputError("source", f"expected 'camera', got {source!r}")
+            summary = await work(register_from_camera, cell, name, replace=replace)
+        elif form.get("right") is not None or form.get("left") is not None:
+            views = [await _file(form, f) for f in ("right", "left")]
+            empty = [await _file(form, f) if form.get(f) is not None else None
+                     for f in ("empty_right", "empty_left")]
+            summary = await work(register_in_place, cell, name, *views, *empty,
+                                 replace=replace)
+        else:
+            photo, background = await _file(form, "photo"), await _file(form, "background")
+            summary = await work(cell.register, name, photo, background,
+                                 _float(form, "distance_mm"), replace=replace)
         return _JSON(summary, status_code=201)
 
     async def delete_model(request: Request) -> Response:

@@ -363,6 +363,15 @@ class CellService:
                                            f"{photo_bgr.shape[1]}x{photo_bgr.shape[0]} px")
         model = build_model(photo_bgr, background_bgr, self.camera,
                             distance_mm or self.distance_mm, name=name)
+        return _summary(self.adopt(model, replace=replace))
+
+    def adopt(self, model: PhotoModel, *, replace: bool = False) -> LibraryEntry:
+        """Add a built model to the library and prepare it (Conflict when its name is taken
+        and ``replace`` is False); its library entry."""
+        identifier = self.identifier
+        name = model.name
+        if name in identifier.entries and not replace:
+            raise _taken(name)
         locator = identifier.prepared.make(model)
         with self._writing:
             if name in identifier.entries and not replace:
@@ -375,7 +384,7 @@ class CellService:
             finally:
                 self._changes += 1
         log.info("serve: registered %s (%.0f x %.0f mm)", name, *entry.size_mm)
-        return _summary(entry)
+        return entry
 
     def remove(self, name: str) -> dict[str, Any]:
         """Delete model ``name`` from the library and from memory; returns its summary."""

@@ -1,10 +1,12 @@
-"""The cell service's OPC UA face: a PLC calls ``Locate(model)`` or ``Identify()`` and reads
-the pose from variables (``photomodel serve --opcua PORT``; contract in docs/contracts.md,
+"""The cell service's OPC UA face: a PLC calls ``Locate(model)``, ``Identify()`` or
+``Register(name)`` and reads the pose from variables (``photomodel serve --opcua PORT``; contract in docs/contracts.md,
 design in docs/method/opcua.md).
 
-The face is a thin adapter: it takes two blocking callables (for the service,
+The face is a thin adapter: it takes blocking callables (for the service,
 ``CellService.trigger_locate`` and ``trigger_identify``, which grab a fresh stereo pair and
-answer as HTTP ``/trigger/locate`` and ``/trigger/identify`` do) and runs them one at a time
+answer as HTTP ``/trigger/locate`` and ``/trigger/identify`` do, and optionally
+``register_from_camera``, which builds a model of the garment where it lies and answers
+where that is) and runs them one at a time
 in a worker thread, never on the server's event loop. ``asyncua`` (the ``plc`` extra) is
 imported only when a face is built.
 """
@@ -218,14 +220,16 @@ class OpcUaFace:
     """
 
     def __init__(self, locate: Callable[[str], dict[str, Any]],
-                 identify: Callable[[], dict[str, Any]], *, endpoint: str = DEFAULT_ENDPOINT,
-                 token: str | None = None) -> None:
+                 identify: Callable[[], dict[str, Any]], *,
+                 register: Callable[[str], dict[str, Any]] | None = None,
+                 endpoint: str = DEFAULT_ENDPOINT, token: str | None = None) -> None:
         _import_asyncua()
         self.token = _check_token(token)
         self.host, self.port = _check_endpoint(endpoint, self.token)
         self._endpoint = endpoint
         self._locate = locate
         self._identify = identify
+        self._register = register
         self._server: Server | None = None
         self._nodes: dict[str, Any] = {}
         self._executor: ThreadPoolExecutor | None = None
@@ -338,6 +342,13 @@ class OpcUaFace:
                              [found, arg("model", s, "the model identified (empty: none)"), rid])
         await obj.add_method(nid("Reset"), ua.QualifiedName("Reset", idx), self._on_reset,
                              [], [])
+        if self._register is not None:
+            await obj.add_method(
+                nid("Register"), ua.QualifiedName("Register", idx), self._on_register,
+                [arg("name", s, "the new model's name; the garment lies in the cameras' view "
+                                "on the table, nothing else there")],
+                [arg("registered", b, "whether the model was built and added"),
+                 arg("model", s, "its name"), rid])
 
     async def _write(self, **values: Any) -> None:
         from asyncua import ua
@@ -367,6 +378,9 @@ class OpcUaFace:
 
     async def _on_identify(self, parent: Any, *args: Any) -> Any:
         return await self._call("Identify", args, [])
+
+    async def _on_register(self, parent: Any, *args: Any) -> Any:
+        return await self._call("Register", args, ["name"])
 
     async def _on_reset(self, parent: Any, *args: Any) -> Any:
         from asyncua import ua
@@ -398,6 +412,10 @@ class OpcUaFace:
         if method == "Locate":
             job = partial(self._locate, values[0])
             self._job = f"Locate({values[0]!r})"
+        elif method == "Register":
+            assert self._register is not None
+            job = partial(self._register, values[0])
+            self._job = f"Register({values[0]!r})"
         else:
             job = self._identify
             self._job = "Identify()"
@@ -428,8 +446,8 @@ class OpcUaFace:
         """Write ``answer`` into the result variables; the method's output arguments."""
         from asyncua import ua
 
-        found = bool(answer.get("found"))
-        model = answer.get("model") or ""
+        found = bool(answer.get("found")) or method == "Register"
+        model = answer.get("model") or answer.get("name") or ""
         result_id = str(answer.get("id") or "")
         values = {"Found": found, "Model": str(model),
                   "PositionMm": _numbers(answer.get("position_mm"), 3),
@@ -439,7 +457,7 @@ class OpcUaFace:
                   "Timestamp": _frame_time(answer), "ResultId": result_id}
         await self._write(**values)
         outputs = [ua.Variant(found, ua.VariantType.Boolean)]
-        if method == "Identify":
+        if method in ("Identify", "Register"):
             outputs.append(ua.Variant(str(model), ua.VariantType.String))
         outputs.append(ua.Variant(result_id, ua.VariantType.String))
         return outputs
