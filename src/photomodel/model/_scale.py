@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera
+from photomodel.errors import NoGarmentError
 from photomodel.image import bgr_to_hsv, sample_bilinear
 from photomodel.model._build import BuildResult, _sample, _smooth, build_photo_model
 from photomodel.model._config import BuildConfig
@@ -99,9 +100,13 @@ def build_unknown_scale(
     f = _NOMINAL_DISTANCE_MM / mm_per_px
     camera = PinholeCamera(np.array([[f, 0.0, (pw - 1) / 2], [0.0, f, (ph - 1) / 2],
                                      [0.0, 0.0, 1.0]]), np.zeros(5), pw, ph)
-    built = build_photo_model(photo_bgr, background_bgr, camera, _NOMINAL_DISTANCE_MM,
-                              name=name, config=config, photo_source=photo_source,
-                              background_source=background_source)
+    try:
+        built = build_photo_model(photo_bgr, background_bgr, camera, _NOMINAL_DISTANCE_MM,
+                                  name=name, config=config, photo_source=photo_source,
+                                  background_source=background_source)
+    except NoGarmentError:
+        raise NoGarmentError(photo_source, "no garment found: nothing in the photo differs "
+                                           "from the surface it lies on") from None
     built.model.meta["scale"] = {"known": False, "nominal_mm_per_px": mm_per_px,
                                  "photo_shrink": shrink}
     return built
