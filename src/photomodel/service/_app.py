@@ -33,7 +33,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
-from photomodel.service._register import register_from_camera, register_in_place
+from photomodel.service._register import register_from_camera, register_in_place, set_scale
 from photomodel.service._source import SourceError
 from photomodel.service._track_socket import track_endpoint
 
@@ -449,6 +449,12 @@ def create_app(cell: CellService, *, warm: bool = True,
                                  _float(form, "distance_mm"), replace=replace)
         return _JSON(summary, status_code=201)
 
+    async def model_scale(request: Request) -> Response:
+        form = await _form(request, limit)
+        summary = await work(set_scale, cell, request.path_params["name"],
+                             factor=_float(form, "factor"), result_id=_field(form, "result"))
+        return _JSON(summary)
+
     async def delete_model(request: Request) -> Response:
         return _JSON(await work(cell.remove, request.path_params["name"]))
 
@@ -517,6 +523,7 @@ def create_app(cell: CellService, *, warm: bool = True,
         Route("/models", list_models, methods=["GET"]),
         Route("/models", add_model, methods=["POST"]),
         Route("/models/{name}", delete_model, methods=["DELETE"]),
+        Route("/models/{name}/scale", model_scale, methods=["POST"]),
         Route("/models/{name}/preview.png", preview),
         Route("/results", results),
         Route("/results/{id}", result),

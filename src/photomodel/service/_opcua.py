@@ -1,6 +1,6 @@
 """The cell service's OPC UA face: a PLC calls ``Locate(model)``, ``Identify()`` or
-``Register(name)`` and reads the pose from variables (``photomodel serve --opcua PORT``; contract in docs/contracts.md,
-design in docs/method/opcua.md).
+``Register(name)`` and reads the pose from variables (``photomodel serve --opcua PORT``;
+contract in docs/contracts.md, design in docs/method/opcua.md).
 
 The face is a thin adapter: it takes blocking callables (for the service,
 ``CellService.trigger_locate`` and ``trigger_identify``, which grab a fresh stereo pair and

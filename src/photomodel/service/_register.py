@@ -92,3 +92,45 @@ def register_from_camera(cell: CellService, name: str, *, replace: bool = False
     grab, frame = cell._grabbed()
     return {**register_in_place(cell, name, grab.right_bgr, grab.left_bgr, replace=replace),
             **frame}
+
+
+def set_scale(cell: CellService, name: str, *, factor: float | None = None,
+              result_id: str | None = None) -> dict[str, Any]:
+    """Store model ``name`` (of unknown scale) at a measured scale: ``factor`` (real mm per
+    nominal mm), or the ``scale`` of locate result ``result_id`` of that model, found. The
+    model is sampled anew at that scale (:func:`~photomodel.model.resampled_model`) and
+    replaces the library's; the answer is its ``/models`` summary plus ``scale``."""
+    from photomodel.errors import InputError
+    from photomodel.model import resampled_model, scale_known
+    from photomodel.service._cell import NotFound, _summary
+
+    if (factor is None) == (result_id is None):
+        raise InputError("factor", "give the scale as factor=F or the locate result it was "
+                                   "measured in as result=ID (one of them)")
+    if name not in cell.identifier.entries:
+        raise NotFound("model", f"no model named {name!r}")
+    source = f"factor {factor}"
+    if result_id is not None:
+        found = cell.results.get(result_id)
+        if found is None:
+            raise NotFound("result", f"no result {result_id!r} (only the last "
+                                     f"{cell.results.size} are kept)")
+        answer = found.answer
+        if answer.get("model") != name or answer.get("scale") is None:
+            raise InputError("result", f"result {result_id!r} is no locate of {name!r} that "
+                                       "measured its scale")
+        if not answer.get("found"):
+            raise InputError("result", f"result {result_id!r} did not find {name!r}: its "
+                                       "scale is not confirmed")
+        factor = float(answer["scale"])
+        source = f"locate result {result_id}"
+    assert factor is not None
+    entry = cell.identifier.entries[name]
+    model = cell.library.load_entry(entry)
+    if scale_known(model):
+        raise InputError("name", f"model {name!r} has a known scale already")
+    try:
+        scaled = resampled_model(model, factor, source=source)
+    except ValueError as exc:
+        raise InputError("factor", str(exc).removeprefix("scale: ")) from None
+    return {**_summary(cell.adopt(scaled, replace=True)), "scale": factor}
