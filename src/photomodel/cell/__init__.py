@@ -3,9 +3,10 @@
 :func:`run_cell` (what ``photomodel cell`` runs) photographs each order's garment at the model
 station, photographs the table from the PA10's hand, locates the garment and plans its pick,
 against the simulator's truth; :func:`run_servo_cell` (``cell --servo``) picks garments from a
-moving conveyor, open loop and servoed by the tracker at camera rate; :func:`pick` (what
-``photomodel pick`` runs) locates a model in a real stereo pair taken at known joints and plans
-its pick and place.
+moving conveyor, open loop and servoed by the tracker at camera rate; :func:`run_clear`
+(``cell --tables``) clears piles of garments into one box per model (:func:`animate_clear`
+draws a table's looks); :func:`pick` (what ``photomodel pick`` runs) locates a model in a real
+stereo pair taken at known joints and plans its pick and place.
 
 Sits above ``locate``, ``sim`` and ``robot`` and uses their public names; none of them imports
 it. Frames follow docs/contracts.md: ``T_a_b`` maps b to a, mm and radians inside;
@@ -27,7 +28,9 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "run_cycle",
             "simulated_hand_eye",
         ],
-        "_clear": ["ClearConfig", "ClearReport", "box_layouts", "clear_table", "run_clear"],
+        "_clear": ["ClearConfig", "ClearLook", "ClearReport", "box_layouts", "clear_table",
+                   "run_clear"],
+        "_clear_animate": ["animate_clear"],
         "_pick": ["PickResult", "grasp_point_from_photo_px", "pick", "write_json_atomic"],
         "_servo": [
             "AIM_MODES",
@@ -48,6 +51,7 @@ __all__ = [
     "CellReport",
     "CellSetup",
     "ClearConfig",
+    "ClearLook",
     "ClearReport",
     "CycleOutcome",
     "PickResult",
@@ -55,6 +59,7 @@ __all__ = [
     "ServoReport",
     "ServoSettings",
     "ServoTick",
+    "animate_clear",
     "animate_servo",
     "box_layouts",
     "clear_table",

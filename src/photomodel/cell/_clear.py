@@ -12,6 +12,9 @@ simulated hand-eye calibration into the box of the *identified* model (one box p
 garment away (what lay on it settles onto what was under it); a pick that misses leaves it,
 pushed a little. A pick may also drag the garment it lay on (``drag_probability``): that one
 then lies elsewhere, and the next look must find it where it now lies.
+
+Each look can be kept (:class:`ClearLook`: camera 1's image, what was found, the pick and the
+boxes' counts) for :func:`~photomodel.cell.animate_clear`.
 """
 
 from __future__ import annotations
@@ -19,12 +22,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.cell._cell import CellSetup, _photo_model, _stats, make_cell
+from photomodel.model import PhotoModel
 from photomodel.robot import (
     CellLayout,
     PickSettings,
@@ -34,7 +38,11 @@ from photomodel.robot import (
     plan_pick,
 )
 
-__all__ = ["ClearConfig", "ClearReport", "box_layouts", "clear_table", "run_clear"]
+if TYPE_CHECKING:
+    from photomodel.identify import TableResult
+
+__all__ = ["ClearConfig", "ClearLook", "ClearReport", "box_layouts", "clear_table",
+           "run_clear"]
 
 BOX_ROWS_Y_MM = (-600.0, 600.0)
 BOX_COLUMNS_X_MM = (150.0, 410.0, -110.0, 670.0, -370.0, -630.0)
@@ -109,11 +117,49 @@ def box_layouts(layout: CellLayout, models: tuple[str, ...]) -> dict[str, CellLa
 
 
 @dataclass(frozen=True)
+class ClearLook:
+    """One look at a table as :func:`clear_table` saw and acted on it (kept on request).
+
+    Attributes
+    ----------
+    table, look : int
+        The table's index and the look's (0 first).
+    right_bgr : ndarray of uint8, shape (H, W, 3)
+        Camera 1's image of the table (BGR), as the look rendered it.
+    found : TableResult
+        :meth:`~photomodel.identify.Identifier.all`'s answer: every garment found (poses
+        ``T_cam1_model`` in camera 1's frame, mm), and the pick order.
+    models : dict of str to PhotoModel
+        The photo-model of each found garment's model, by name (to draw their outlines).
+    pick : dict or None
+        The look's pick record (an entry of the table record's ``picks``: ``model``,
+        ``score``, ``placed``, ``under``, ``reachable``, ``grasp_error_mm`` (mm), ...); None
+        when nothing was found.
+    placed : dict of str to int
+        Garments in each model's box after this look (boxes still empty left out).
+    remaining : int
+        Garments left on the table after this look.
+    """
+
+    table: int
+    look: int
+    right_bgr: NDArray[np.uint8]
+    found: TableResult
+    models: dict[str, PhotoModel]
+    pick: dict[str, Any] | None
+    placed: dict[str, int]
+    remaining: int
+
+
+@dataclass(frozen=True)
 class ClearReport:
-    """Every table's record and the summary (JSON-ready)."""
+    """Every table's record and the summary (JSON-ready); the cell's set-up and the looks of
+    the table kept (:func:`run_clear`'s ``keep``), when asked for."""
 
     tables: list[dict[str, Any]]
     summary: dict[str, Any]
+    setup: CellSetup | None = None
+    kept: list[ClearLook] | None = None
 
     def to_json_dict(self) -> dict[str, Any]:
         return {"summary": self.summary, "tables": self.tables}
@@ -134,9 +180,12 @@ def _nudged(T: NDArray[np.float64], gen: np.random.Generator, shift_mm: tuple[fl
     return out
 
 
-def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: int
-                ) -> dict[str, Any]:
-    """Clear table ``index`` (module docstring): its record."""
+def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: int,
+                keep: list[ClearLook] | None = None) -> dict[str, Any]:
+    """Clear table ``index`` (module docstring): its record.
+
+    ``keep``: a list each look is appended to (:class:`ClearLook`), or None.
+    """
     from photomodel.sim import (
         catalogue_garment,
         hand_table_pose,
@@ -154,6 +203,7 @@ def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: i
     boxes = box_layouts(config.layout, config.models)
     T_base_hand = forward_kinematics(setup.arm, setup.q_photo)
     picks: list[dict[str, Any]] = []
+    boxed: dict[str, int] = {}
     reason = "cleared"
     for look in range(config.max_looks_per_garment * config.garments):
         if not table.garments:
@@ -164,6 +214,9 @@ def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: i
         first = found.first
         if first is None:
             reason = f"nothing found with {len(table.garments)} garment(s) left"
+            if keep is not None:
+                keep.append(_look(identifier, index, look, shot.right_bgr, found, None, boxed,
+                                  len(table.garments)))
             break
         T_est = first.result.T_cam1_model
         truth = min(shot.garments, key=lambda g: float(np.linalg.norm(
@@ -203,6 +256,11 @@ def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: i
             g = table.garment(dragged)
             table = table.moved(dragged, _nudged(g.T_table_garment, gen, (10.0, 40.0), 10.0))
             record["dragged"] = dragged
+        if taken:
+            boxed[first.model] = boxed.get(first.model, 0) + 1
+        if keep is not None:
+            keep.append(_look(identifier, index, look, shot.right_bgr, found, record, boxed,
+                              len(table.garments)))
     else:
         if table.garments:
             reason = f"{len(table.garments)} garment(s) left after {len(picks)} looks"
@@ -215,9 +273,27 @@ def clear_table(config: ClearConfig, setup: CellSetup, identifier: Any, index: i
             "seconds": time.perf_counter() - t0, "picks": picks}
 
 
+def _look(identifier: Any, table: int, look: int, right_bgr: NDArray[np.uint8],
+          found: TableResult, record: dict[str, Any] | None, boxed: dict[str, int],
+          remaining: int) -> ClearLook:
+    """The look as kept: the found garments' photo-models from the identifier's prepared ones
+    (every model of an in-memory library stays prepared)."""
+    models = {}
+    for g in found.garments:
+        held = identifier.prepared.peek(g.model)
+        if held is not None:
+            models[g.model] = held.model
+    return ClearLook(table, look, right_bgr, found, models, record, dict(boxed), remaining)
+
+
 def run_clear(config: ClearConfig,
-              progress: Callable[[int, int, str], None] | None = None) -> ClearReport:
-    """Clear ``config.tables`` tables; ``progress(done, total, what)`` after each one."""
+              progress: Callable[[int, int, str], None] | None = None,
+              keep: int | None = None) -> ClearReport:
+    """Clear ``config.tables`` tables; ``progress(done, total, what)`` after each one.
+
+    ``keep``: the table whose looks are kept (:attr:`ClearReport.kept`, for
+    :func:`~photomodel.cell.animate_clear`), or None.
+    """
     from photomodel.cell._cell import CellConfig
     from photomodel.identify import Identifier
 
@@ -227,13 +303,18 @@ def run_clear(config: ClearConfig,
                                  pick=config.pick))
     identifier = Identifier([_photo_model(m, config.seed) for m in config.models], setup.rig)
     tables = []
+    kept: list[ClearLook] | None = None
     for k in range(config.tables):
-        record = clear_table(config, setup, identifier, k)
+        looks: list[ClearLook] | None = [] if k == keep else None
+        record = clear_table(config, setup, identifier, k, looks)
+        if looks is not None:
+            kept = looks
         tables.append(record)
         if progress is not None:
             progress(k + 1, config.tables, f"table {k}: {record['placed']} of "
                                            f"{record['garments']} placed ({record['reason']})")
-    return ClearReport(tables, summarise_clear(config, tables, time.perf_counter() - t0))
+    return ClearReport(tables, summarise_clear(config, tables, time.perf_counter() - t0),
+                       setup, kept)
 
 
 def summarise_clear(config: ClearConfig, tables: list[dict[str, Any]], seconds: float

@@ -46,7 +46,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default=None, help="write every cycle and the summary as JSON")
     p.add_argument("--animate", default=None,
                    help="render the first planned cycle's motion to a .gif (or .mp4); with "
-                        "--servo the first order's servoed pick and what camera 1 saw")
+                        "--servo the first order's servoed pick and what camera 1 saw; with "
+                        "--tables the first table's looks, picks and boxes")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     tables = p.add_argument_group("clearing tables")
     tables.add_argument("--tables", type=int, default=None, metavar="K",
@@ -152,12 +153,14 @@ def _run_servo(args: argparse.Namespace, config: Any, animate: Path | None) -> i
 
 
 def _run_tables(args: argparse.Namespace) -> int:
-    """``cell --tables K --garments N``: piles cleared into one box per model."""
-    from photomodel.cell import ClearConfig, run_clear
+    """``cell --tables K --garments N``: piles cleared into one box per model; ``--animate``
+    draws the first table's looks."""
+    from photomodel.cell import ClearConfig, animate_clear, run_clear
     from photomodel.cli._options import as_option_error, check_int
     from photomodel.cli._progress import count_progress
     from photomodel.sim import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS, parse_conditions
 
+    animate = _animation_path(args.animate) if args.animate else None
     check_int("--tables", args.tables, 1, MAX_TABLES)
     text = "4" if args.garments is None else str(args.garments).strip()
     if not text.isdigit():
@@ -179,7 +182,12 @@ def _run_tables(args: argparse.Namespace) -> int:
         raise as_option_error(exc, {"tables": "--tables", "garments": "--garments"},
                               "cell") from None
     with count_progress("cell --tables", enabled=sys.stderr.isatty()) as progress:
-        report = run_clear(config, progress)
+        report = run_clear(config, progress, keep=0 if animate else None)
+    if animate is not None and report.kept and report.setup is not None:
+        animate_clear(report.kept, animate, rig=report.setup.rig, models=config.models,
+                      layout=config.layout,
+                      title=f"clearing a table of {config.garments} garments (seed "
+                            f"{config.seed}): look, pick the first, place it into its box")
     s = report.summary
     if not _emit(args, report):
         e = s["grasp_error_mm"]
@@ -189,6 +197,17 @@ def _run_tables(args: argparse.Namespace) -> int:
               f"{_fmt(e['mean'])} max {_fmt(e['max'])} mm; {s['seconds_per_garment']:.2f} s "
               "a garment")
     return 0
+
+
+def _animation_path(path: str) -> Path:
+    """``--animate``'s path (:func:`~photomodel.robot.check_animation_path`) in a folder that
+    exists, or :class:`InputError` before any work."""
+    from photomodel.robot import check_animation_path
+
+    p = check_animation_path(path)
+    if not p.parent.is_dir():
+        raise InputError(p, f"folder {str(p.parent)!r} does not exist")
+    return p
 
 
 def _emit(args: argparse.Namespace, report: Any) -> bool:
