@@ -118,15 +118,15 @@ class InPlaceBuild:
 
 # ----------------------------------------------------------------------------- stereo
 
-_RECTIFY: dict[tuple[bytes, ...], tuple[NDArray[np.float32], ...]] = {}
+_RECTIFY: dict[tuple[object, ...], tuple[NDArray[np.float32], ...]] = {}
 
 
-def _rectification(rig: StereoRig) -> tuple[NDArray[np.float32], ...]:
-    """Both cameras' rectification maps, camera 1's rectifying rotation ``R1``, the rectified
-    focal length and the baseline term ``f Tx`` (disparity = f Tx / depth); once per rig."""
-    key = rig.calibration_key
+def _rectification(rig: StereoRig, size: tuple[int, int]) -> tuple[NDArray[np.float32], ...]:
+    """Both cameras' rectification maps for images of ``size`` (w, h), camera 1's
+    rectifying rotation ``R1``, its projection ``P1`` and the baseline term ``f Tx``
+    (disparity = f Tx / depth); once per rig and size."""
+    key = (*rig.calibration_key, size)
     if key not in _RECTIFY:
-        size = (rig.cam1.width_px or 0, rig.cam1.height_px or 0)
         R1, R2, P1, P2, *_ = cv2.stereoRectify(rig.cam1.K, rig.cam1.dist, rig.cam2.K,
                                                rig.cam2.dist, size, rig.R, rig.T.reshape(3, 1),
                                                flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
@@ -141,7 +141,7 @@ def _rectification(rig: StereoRig) -> tuple[NDArray[np.float32], ...]:
 def _rectified(rig: StereoRig, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8]
                ) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
     """Both views rectified, in grey."""
-    m1x, m1y, m2x, m2y = _rectification(rig)[:4]
+    m1x, m1y, m2x, m2y = _rectification(rig, _size(right_bgr))[:4]
     g1 = cv2.remap(cv2.cvtColor(right_bgr, cv2.COLOR_BGR2GRAY), m1x, m1y, cv2.INTER_LINEAR)
     g2 = cv2.remap(cv2.cvtColor(left_bgr, cv2.COLOR_BGR2GRAY), m2x, m2y, cv2.INTER_LINEAR)
     return g1, g2
@@ -223,7 +223,7 @@ def measure_plane(rig: StereoRig, right_bgr: NDArray[np.uint8], left_bgr: NDArra
     NoGarmentError
         Too few matched pixels for a plane.
     """
-    m1x, m1y, _, _, R1, P1, ftx = _rectification(rig)
+    m1x, m1y, _, _, R1, P1, ftx = _rectification(rig, _size(right_bgr))
     f_tx = abs(float(ftx[0]))
     g1, g2 = _rectified(rig, right_bgr, left_bgr)
     disp = _disparity(g1, g2, f_tx, depth_mm)
@@ -316,14 +316,20 @@ class Orthophoto:
         return cv2.remap(image, *self.maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
-def orthophoto(camera: PinholeCamera, plane: TablePlane, margin_px: int = 2) -> Orthophoto:
+def _size(image: NDArray[np.uint8]) -> tuple[int, int]:
+    return int(image.shape[1]), int(image.shape[0])
+
+
+def orthophoto(camera: PinholeCamera, plane: TablePlane, margin_px: int = 2,
+               size: tuple[int, int] | None = None) -> Orthophoto:
     """The orthophoto of ``plane`` (in ``camera``'s frame) over the largest rectangle of it
-    that ``camera`` sees, ``margin_px`` inside its image (module docstring, step 3)."""
+    that ``camera`` sees in its images of ``size`` (w, h; default the calibration's),
+    ``margin_px`` inside them (module docstring, step 3)."""
     R = plane.R_cam1_plane()
     d = plane.distance_mm
     f = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1]))
     s = d / f
-    w, h = camera.width_px or 0, camera.height_px or 0
+    w, h = size or (camera.width_px or 0, camera.height_px or 0)
     edge = np.concatenate([np.column_stack([np.linspace(0, w - 1, 64), np.full(64, y)])
                            for y in (0, h - 1)]
                           + [np.column_stack([np.full(64, x), np.linspace(0, h - 1, 64)])
@@ -435,6 +441,11 @@ def build_in_place(
     names = [str(s) for s in sources]
     rig.cam1.check_image(right_bgr, names[0])
     rig.cam2.check_image(left_bgr, names[1])
+    for image, source in ((left_bgr, names[1]), (empty_right_bgr, names[2]),
+                          (empty_left_bgr, names[3])):
+        if image is not None and image.shape != right_bgr.shape:
+            raise InputError(source, f"size {image.shape[1]}x{image.shape[0]} differs from "
+                                     f"{names[0]}'s {right_bgr.shape[1]}x{right_bgr.shape[0]}")
     if (empty_right_bgr is None) != (empty_left_bgr is None):
         missing = names[3] if empty_left_bgr is None else names[2]
         raise InputError(missing, "give both views of the empty table, or neither")
@@ -455,7 +466,7 @@ def build_in_place(
                                    "in view): move the hand or the garment so that all of it "
                                    "shows")
     plane = measure_plane(rig, right_bgr, left_bgr, rough)
-    ortho = orthophoto(rig.cam1, plane)
+    ortho = orthophoto(rig.cam1, plane, size=_size(right_bgr))
     photo = ortho.resample(right_bgr)
     background = (ortho.resample(empty_right_bgr) if empty_right_bgr is not None
                   else _table_photo(photo))

@@ -5,6 +5,7 @@ cameras' stereo pair (uploaded, or grabbed from its camera source) with
 from __future__ import annotations
 
 import warnings
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -48,10 +49,11 @@ def register_in_place(cell: CellService, name: str, right: Image, left: Image,
     -------
     dict
         ``/models``' summary of the new model plus ``in_place`` (``mm_per_px``,
-        ``plane_distance_mm``, ``plane_rms_mm``, ``plane_points``, ``empty_pair``) and where
-        it lies: ``T_cam1_model``, ``position_mm``, ``quat_wxyz`` (camera 1, mm).
+        ``plane_distance_mm``, ``plane_rms_mm``, ``plane_points``, ``empty_pair``), where it
+        lies: ``T_cam1_model``, ``position_mm``, ``quat_wxyz`` (camera 1, mm), ``found``
+        (true), ``model`` (its name) and ``id``, a result whose overlay shows it.
     """
-    from photomodel.service._cell import _summary, _taken
+    from photomodel.service._cell import _pair_png, _summary, _taken
 
     check_model_name(name, "name")
     if name in cell.identifier.entries and not replace:
@@ -67,7 +69,7 @@ def register_in_place(cell: CellService, name: str, right: Image, left: Image,
     entry = cell.adopt(made.built.model, replace=replace)
     T = made.T_cam1_model
     quality = made.built.quality
-    return {**_summary(entry),
+    answer = {**_summary(entry),
             "in_place": {"mm_per_px": made.mm_per_px,
                          "plane_distance_mm": made.plane.distance_mm,
                          "plane_rms_mm": made.plane.rms_mm,
@@ -76,7 +78,12 @@ def register_in_place(cell: CellService, name: str, right: Image, left: Image,
                          else quality.plane_colour_share,
                          "empty_pair": views[2] is not None},
             "T_cam1_model": T.tolist(), "position_mm": T[:3, 3].tolist(),
-            "quat_wxyz": quat_wxyz_from_matrix(T[:3, :3]).tolist()}
+            "quat_wxyz": quat_wxyz_from_matrix(T[:3, :3]).tolist(), "found": True,
+            "model": name}
+    caption = f"registered {name} in place ({made.mm_per_px:.2f} mm/px)"
+    cell.results.add("register", answer, partial(_pair_png, views[0], views[1], caption,
+                                                 made.built.model, T, cell.rig))
+    return answer
 
 
 def register_from_camera(cell: CellService, name: str, *, replace: bool = False
