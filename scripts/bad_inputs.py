@@ -515,6 +515,26 @@ def _described_as_lib(library: str) -> Callable[[Path], str | None]:
     return verify
 
 
+DAMAGED_LABELS = '{"format": "photomodel-labels", "version": 1, "labels": {"PM-1": '
+"""A label map cut short."""
+
+
+def _damaged_labels(library: str) -> tuple[Callable[[Path], None],
+                                           Callable[[Path], str | None]]:
+    """A ``prepare`` writing ``library``, a copy of ``lib`` with a damaged ``labels.json``,
+    and a ``verify`` that the file is left as it was."""
+
+    def prepare(work: Path) -> None:
+        shutil.copytree(work / "lib", work / library, copy_function=shutil.copy2)
+        (work / library / "labels.json").write_text(DAMAGED_LABELS)
+
+    def verify(work: Path) -> str | None:
+        path = work / library / "labels.json"
+        return None if path.read_text() == DAMAGED_LABELS else f"{library}/labels.json changed"
+
+    return prepare, verify
+
+
 def _still_empty(library: str) -> Callable[[Path], str | None]:
     def verify(work: Path) -> str | None:
         found = sorted(p.name for p in (work / library).iterdir())
@@ -615,6 +635,8 @@ def cases() -> list[Case]:
     old_cal = "%YAML:1.0\n# the model camera, calibrated last week\n"
     cal_keep_prepare, cal_keep_verify = _keeps("cal_old.yaml", old_cal)
     no_plots = _no_calibration("cal_old.yaml", kept=True)
+    labels_prepare, labels_verify = _damaged_labels("lib_labels")
+    labels_id_prepare, labels_id_verify = _damaged_labels("lib_labels_id")
 
     def stereo(name: str, pairs: str, pattern: str = CAL_PATTERN, out: str | None = None,
                **kwargs: Any) -> Case:
@@ -745,6 +767,16 @@ def cases() -> list[Case]:
         _case("Model library", "model name with a right-to-left override", "models", "add",
               "--models", "lib_rtl", "shirt.npz", "--name", "evil\u202eman",
               verify=_no_model_in("lib_rtl")),
+        _case("Model library", "`models label` naming a model the library does not hold",
+              "models", "label", "--models", "lib", "jeans", "PM-7",
+              verify=_absent("lib/labels.json")),
+        _case("Model library", "a label map cut short (`labels.json`), with `models label`",
+              "models", "label", "--models", "lib_labels", "shirt", "PM-7",
+              prepare=labels_prepare, verify=labels_verify),
+        _case("Model library", "a label map cut short (`labels.json`): identify warns, reads "
+              "the pair as without a map", "identify", "--models", "lib_labels_id", *IDENTIFY,
+              "--json", expected_code=0, summary=_json_found,
+              prepare=labels_id_prepare, verify=labels_id_verify),
         # tracking (`photomodel track`, the valid sequence `frames/`)
         _case("Tracking", "a frame of another size mid-sequence (000001/right.png 320 x 240)",
               "track", "--frames", "trk_size", "--json", expected_code=1, summary=_tracked,

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from photomodel.errors import InputError
 
 if TYPE_CHECKING:
-    from photomodel.identify import TableResult
+    from photomodel.identify import LabelCheck, TableResult
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="Search every photo-model of a library directory in the images of the "
                     "hand's two cameras (camera 1 = right = reference); print the best model "
                     "with its pose T_cam1_model, or none when its score stays below the "
-                    "calibrated threshold.")
+                    "calibrated threshold. A barcode, QR code or DataMatrix read in either "
+                    "view is reported beside it (label), with the model the library's label "
+                    "map names for it and whether that agrees (photomodel models label).")
     p.add_argument("--models", required=True, type=Path, help="model library directory")
     p.add_argument("--stereo", required=True, type=Path, help="stereo calibration (K1, D1, ...)")
     p.add_argument("--right", required=True, type=Path, help="camera 1 (right) image")
@@ -87,9 +89,23 @@ def run(args: argparse.Namespace) -> int:
         print(f"model       none of the {len(identifier)} models is on the table ({best}, "
               f"threshold {result.min_score:.3f})")
     print(f"runner-up   {runner_text}")
+    if result.label is not None:
+        print(f"label       {_label_text(result.label)}")
     print(f"identify    {sum(c.result is not None for c in result.candidates)} of "
           f"{len(identifier)} models searched, {result.seconds:.2f} s")
     return 0
+
+
+def _label_text(label: LabelCheck) -> str:
+    """The label line of ``identify``'s text answer."""
+    read = f"{label.read.text!r} ({label.read.format})"
+    if label.model is None:
+        return f"{read}: in no entry of the label map"
+    if label.agrees:
+        return f"{read} names {label.model}: agrees"
+    seen = ("not located" if label.located is None else
+            f"{'found' if label.found else 'not found'}, score {label.located.score:.3f}")
+    return f"{read} names {label.model} ({seen}): DISAGREES with the photo-model's answer"
 
 
 def _print_all(result: TableResult, as_json: bool, models: int) -> int:

@@ -1,4 +1,5 @@
-"""``photomodel models list|add|remove|show|reindex``: manage a model library directory."""
+"""``photomodel models list|add|remove|show|reindex|label|unlabel|labels``: manage a model
+library directory and its label map."""
 
 from __future__ import annotations
 
@@ -21,7 +22,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "caches them and which the writers (add, remove, reindex) "
                                    "keep. Files that are not readable photo-models are skipped "
                                    "with a warning. Writers take turns (a lock file in DIR), "
-                                   "so concurrent adds and removes keep every entry.")
+                                   "so concurrent adds and removes keep every entry. "
+                                   "DIR/labels.json, the label map (label, unlabel, labels), "
+                                   "names the model a garment's barcode, QR code or "
+                                   "DataMatrix stands for.")
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     ls = actions.add_parser("list", help="the library's models: name, size, colours, dates")
     ls.add_argument("--models", required=True, type=Path, help="library directory")
@@ -47,6 +51,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                                "directory of built models opens faster)")
     index.add_argument("--models", required=True, type=Path, help="library directory")
     index.set_defaults(run=run_reindex)
+    label = actions.add_parser(
+        "label", help="let a label's code (barcode, QR code, DataMatrix) name a model",
+        description="Store CODE -> NAME in the library's label map (DIR/labels.json): when "
+                    "identify reads CODE on a garment, it names model NAME and says whether "
+                    "the photo-model agrees. NAME must be a model of the library.")
+    label.add_argument("--models", required=True, type=Path, help="library directory")
+    label.add_argument("name", help="model name")
+    label.add_argument("code", help="the label's text, as a reader reports it")
+    label.add_argument("--replace", action="store_true",
+                       help="move a code that names another model to this one")
+    label.set_defaults(run=run_label)
+    unlabel = actions.add_parser("unlabel", help="drop a code from the label map")
+    unlabel.add_argument("--models", required=True, type=Path, help="library directory")
+    unlabel.add_argument("code", nargs="+", help="label code(s)")
+    unlabel.set_defaults(run=run_unlabel)
+    labels = actions.add_parser("labels", help="the label map: code -> model")
+    labels.add_argument("--models", required=True, type=Path, help="library directory")
+    labels.add_argument("--json", action="store_true", help="print one JSON object")
+    labels.set_defaults(run=run_labels)
 
 
 def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped] | list[str]) -> None:
@@ -144,4 +167,50 @@ def run_reindex(args: argparse.Namespace) -> int:
     scan = ModelLibrary(args.models).reindex()
     warn_skipped(scan.skipped)
     print(f"indexed {len(scan.entries)} model(s) in {args.models}/index.json")
+    return 0
+
+
+def run_label(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary, check_label_code, check_model_name
+
+    check_model_name(args.name, "NAME")
+    check_label_code(args.code, "CODE")
+    library = ModelLibrary(args.models)
+    old = library.set_label(args.code, args.name, replace=args.replace)
+    where = library.labels_path
+    if old == args.name:
+        print(f"label {args.code!r} already names {args.name} in {where}")
+    elif old is not None:
+        print(f"label {args.code!r} now names {args.name} (was {old}) in {where}")
+    else:
+        print(f"label {args.code!r} names {args.name} in {where}")
+    return 0
+
+
+def run_unlabel(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
+    library = ModelLibrary(args.models)
+    for code in args.code:
+        name = library.remove_label(code)
+        print(f"removed label {code!r} (named {name}) from {library.labels_path}")
+    return 0
+
+
+def run_labels(args: argparse.Namespace) -> int:
+    from photomodel.library import ModelLibrary
+
+    library = ModelLibrary(args.models)
+    labels = library.labels()
+    if args.json:
+        print(json.dumps({"library": str(args.models), "labels": labels}))
+        return 0
+    if not labels:
+        print(f"{args.models}: no labels (photomodel models label --models {args.models} "
+              "NAME CODE adds one)")
+        return 0
+    width = max(len(repr(c)) for c in labels)
+    for code in sorted(labels):
+        print(f"{code!r:<{width}}  {labels[code]}")
+    print(f"{len(labels)} label(s)")
     return 0

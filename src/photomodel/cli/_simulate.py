@@ -44,6 +44,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "drawn from --garments, piled up in a known order, with the "
                         "distractors of the conditions: scenes/table<N>_<index>/, truth per "
                         "garment (pose, layer, visible fraction, covered by)")
+    p.add_argument("--labels", action="store_true",
+                   help="every garment carries a printed label (a QR code, DataMatrix or Code "
+                        "128 of its article code, PM-<name>-NNNN or 10 digits, at a drawn "
+                        "place and size: modules about 1.5 to 6 px wide in the hand cameras); "
+                        "the truth gives each scene's label, its module width and corners "
+                        "(needs zxing-cpp: pip install 'photomodel[labels]')")
     p.add_argument("--conditions", default=None,
                    help="comma-separated conditions, or 'all' for every named one "
                         "(default: paper)")
@@ -89,7 +95,7 @@ def _split(text: str) -> list[str]:
 
 _OPTIONS = {"scenes": "--scenes", "seed": "--seed", "garments": "--garments",
             "conditions": "--conditions", "calibration_views": "--calibration-views",
-            "library": "--catalogue", "table": "--table"}
+            "library": "--catalogue", "table": "--table", "label": "--labels"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -165,6 +171,10 @@ def _run_dataset(args: argparse.Namespace) -> int:
         extra[name] = load_garment(image, mask, width_mm, name)
     if args.contact_sheet is not None and args.contact_sheet.suffix.lower() != ".png":
         raise InputError(args.contact_sheet, "contact sheet must be a .png file")
+    if args.labels:
+        from photomodel.image._barcode import zxing
+
+        zxing("--labels")   # one line before anything is simulated when it is missing
     try:
         if conditions == list(CONDITIONS) and args.conditions == "all":
             # Every named condition, but the lens presets need their own datasets.
@@ -176,7 +186,7 @@ def _run_dataset(args: argparse.Namespace) -> int:
                                     extra_garments=extra, library=library,
                                     overwrite=args.force, progress=progress,
                                     calibration_views=args.calibration_views,
-                                    table=args.table)
+                                    table=args.table, labels=args.labels)
     except ValueError as exc:   # an InputError (names its file) passes unchanged
         raise as_option_error(exc, _OPTIONS, "--conditions" if "lens" in str(exc)
                               else str(args.out)) from None
@@ -231,6 +241,7 @@ def _run_sequences(args: argparse.Namespace) -> int:
                           ("--add-garment", bool(args.add_garment)),
                           ("--calibration-views", args.calibration_views != 0),
                           ("--table", args.table is not None),
+                          ("--labels", args.labels),
                           ("--contact-sheet", args.contact_sheet is not None)):
         if given:
             raise InputError(option, "does not apply with --sequences (it writes sequences, "

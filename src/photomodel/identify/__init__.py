@@ -8,7 +8,9 @@ the best is accepted against the threshold calibrated on simulated scenes
 (:mod:`photomodel.locate._threshold`: the library's, the user's or the package's
 ``threshold.json``; ``photomodel experiment --identify --calibrate`` re-derives it).
 :class:`Identifier` holds a library for one rig, its models prepared on first use
-(:class:`PreparedModels`).
+(:class:`PreparedModels`), and reads the garment's label beside the photo-model's answer
+(:func:`read_labels`, :class:`LabelCheck`: barcodes, QR codes and DataMatrix through
+zxing-cpp, named by the library's label map).
 """
 
 import lazy_loader
@@ -36,12 +38,14 @@ __getattr__, _dir, _ = lazy_loader.attach(
             "identify_in_features",
             "identify_with_bank",
         ],
+        "_labels": ["READ_FORMATS", "LabelCheck", "LabelRead", "check_label", "read_labels"],
         "_table": ["TableConfig", "TableGarment", "TableResult", "identify_all"],
     },
 )
 
 __all__ = [
     "DEFAULT_PREPARED_MODELS",
+    "READ_FORMATS",
     "THRESHOLD_FILE",
     "BankConfig",
     "CacheStats",
@@ -50,6 +54,8 @@ __all__ = [
     "IdentifyConfig",
     "Identifier",
     "IdentifyResult",
+    "LabelCheck",
+    "LabelRead",
     "PreparedModels",
     "Region",
     "SceneConfig",
@@ -59,11 +65,13 @@ __all__ = [
     "TableResult",
     "Threshold",
     "calibrate_threshold",
+    "check_label",
     "identify",
     "identify_all",
     "identify_in_features",
     "identify_with_bank",
     "load_threshold",
+    "read_labels",
     "save_threshold",
     "scene_regions",
 ]

@@ -1,29 +1,35 @@
-"""``Identifier``: a model library screened and verified for one rig, called once per pair."""
+"""``Identifier``: a model library screened and verified for one rig, called once per pair,
+with the garment's label read beside it."""
 
 from __future__ import annotations
 
 import os
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
+from photomodel.errors import InputError, InputWarning
 from photomodel.fitness import PreparedModel, StereoFeatures
 from photomodel.identify._bank import DescriptorBank
 from photomodel.identify._cache import CacheStats, PreparedModels
 from photomodel.identify._identify import (
     IdentifyConfig,
     IdentifyResult,
+    _model_rng,
     identify_with_bank,
     model_descriptor,
 )
+from photomodel.identify._labels import LabelRead, check_label, read_labels
 from photomodel.identify._table import TableConfig, TableResult, identify_all
+from photomodel.image._barcode import EXTRA_HINT, zxing_available
 from photomodel.library import LibraryEntry, ModelLibrary
-from photomodel.locate import Locator, load_threshold
+from photomodel.locate import LocateResult, Locator, load_threshold
 from photomodel.model import PhotoModel
 from photomodel.search import SearchSpace
 
@@ -32,6 +38,18 @@ __all__ = ["DEFAULT_PREPARED_MODELS", "Identifier"]
 DEFAULT_PREPARED_MODELS = 32
 """Models an :class:`Identifier` of a library keeps prepared (about 20 MB each with 640 x 480
 cameras)."""
+
+_LABEL_ATTEMPT = 1000
+"""The attempt number (in the seed of a model's search) of a search made for a label."""
+
+
+def _stamp(path: Path) -> tuple[int, int, int] | None:
+    """What tells a changed file: modification time, size and inode; None when missing."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (st.st_mtime_ns, st.st_size, st.st_ino)
 
 
 class Identifier:
@@ -43,6 +61,15 @@ class Identifier:
     best-screened models by a pose search; a model is loaded and prepared for the rig the
     first time it is verified, and at most ``prepared_models`` are kept prepared (least
     recently used dropped).
+
+    When the label map holds labels, each call also reads the labels in view (barcodes, QR
+    codes, DataMatrix; :func:`~photomodel.identify.read_labels`, zxing-cpp, about 50-70 ms a
+    pair) and names the garment through the map; the answer's ``label`` says whether that
+    model is the photo-model's answer.
+    When it is another one that was not verified, that model is located too, so that the
+    answer can say whether it is in view (``label.found``); the photo-model's answer is
+    never changed (docs/method/labels.md). Without zxing-cpp no label is read (one warning
+    when the label map is not empty). :meth:`all` reads no labels.
 
     Parameters
     ----------
@@ -62,13 +89,24 @@ class Identifier:
         library, every model for models in memory).
     prepare : callable(Locator) -> None, optional
         Extra work on each newly prepared Locator.
+    label_map : mapping of str to str, optional
+        Label text -> model name (default: for a directory library its ``labels.json``
+        (:meth:`~photomodel.ModelLibrary.labels`), read again whenever the file changes; none
+        for models in memory). An unreadable ``labels.json`` is one warning, and counts as
+        an empty map until it is fixed.
+    read_labels : bool or None
+        Read the labels in each pair: always (True; an unmapped label is reported too),
+        never (False), or while the label map holds any (None, the default: a library
+        without labels pays nothing). Never without zxing-cpp.
     """
 
     def __init__(self, library: ModelLibrary | Sequence[PhotoModel | Locator], rig: StereoRig,
                  space: SearchSpace | None = None, *, config: IdentifyConfig | None = None,
                  threshold: str | os.PathLike[str] | None = None,
                  prepared_models: int | None = None,
-                 prepare: Callable[[Locator], None] | None = None) -> None:
+                 prepare: Callable[[Locator], None] | None = None,
+                 label_map: Mapping[str, str] | None = None,
+                 read_labels: bool | None = None) -> None:
         config = config or IdentifyConfig()
         root = library.root if isinstance(library, ModelLibrary) else None
         if config.min_score is None:
@@ -114,6 +152,51 @@ class Identifier:
                                        min_score=config.min_score, prepare=prepare)
         for loc in given:
             self.prepared.put(loc)
+        self._given_labels = None if label_map is None else dict(label_map)
+        self._labels_stamp: tuple[int, int, int] | None = None
+        self._labels: dict[str, str] = self._read_labels()
+        self._read_mode = read_labels
+        self._zxing = read_labels is not False and zxing_available()
+        if read_labels is not False and not self._zxing and self._labels:
+            where = self.library.labels_path if self.library is not None else "label_map"
+            warnings.warn(InputWarning(where, f"{len(self._labels)} label(s) in the map, but "
+                                              f"labels are not read without zxing-cpp: "
+                                              f"{EXTRA_HINT}"), stacklevel=2)
+
+    def _read_labels(self) -> dict[str, str]:
+        """The label map: the one given, else the library's (one warning when it cannot be
+        read), else none."""
+        if self._given_labels is not None:
+            return dict(self._given_labels)
+        if self.library is None:
+            return {}
+        self._labels_stamp = _stamp(self.library.labels_path)
+        try:
+            return self.library.labels()
+        except InputError as exc:
+            warnings.warn(InputWarning(exc.source, f"{exc.problem}; no label names a model "
+                                                   "until then"), stacklevel=3)
+            return {}
+
+    @property
+    def reads_labels(self) -> bool:
+        """Whether a call reads the labels in view now (see ``read_labels``)."""
+        if not self._zxing or self._read_mode is False:
+            return False
+        return self._read_mode is True or bool(self._current_labels())
+
+    @property
+    def label_map(self) -> dict[str, str]:
+        """Label text -> model name, as this Identifier reads labels (a copy)."""
+        return dict(self._current_labels())
+
+    def _current_labels(self) -> dict[str, str]:
+        """The label map, the library's read again when its file changed (a ``models label``
+        while a service runs)."""
+        if (self._given_labels is None and self.library is not None
+                and _stamp(self.library.labels_path) != self._labels_stamp):
+            self._labels = self._read_labels()
+        return self._labels
 
     @staticmethod
     def _read(library: ModelLibrary) -> dict[str, LibraryEntry]:
@@ -184,23 +267,55 @@ class Identifier:
 
     def __call__(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
                  rng: int | np.random.Generator | None = None) -> IdentifyResult:
-        """Identify the model in one stereo pair (camera 1 and camera 2 images, BGR)."""
+        """Identify the model in one stereo pair (camera 1 and camera 2 images, BGR), and
+        read its label."""
         t0 = time.perf_counter()
         features = StereoFeatures(self.rig, right_bgr, left_bgr)
-        return self.identify_features(features, rng, t0=t0)
+        return self.identify_features(features, rng, t0=t0,
+                                      labels=self.labels_in(right_bgr, left_bgr))
+
+    def labels_in(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8]
+                  ) -> tuple[LabelRead, ...]:
+        """The labels read in a pair (:func:`~photomodel.identify.read_labels`); none when
+        this Identifier does not read labels now (:attr:`reads_labels`)."""
+        return read_labels(right_bgr, left_bgr) if self.reads_labels else ()
 
     def identify_features(self, features: StereoFeatures,
                           rng: int | np.random.Generator | None = None, *,
-                          t0: float | None = None) -> IdentifyResult:
-        """:meth:`__call__` on a stereo pair already turned into features."""
+                          t0: float | None = None,
+                          labels: Sequence[LabelRead] | None = None) -> IdentifyResult:
+        """:meth:`__call__` on a stereo pair already turned into features; ``labels``: the
+        labels read in it (:meth:`labels_in`; None: the answer's ``label`` is None)."""
+        t0 = time.perf_counter() if t0 is None else t0
         entries, bank = self._state   # one library state for the whole call
         load = self._loader(entries)
 
         def prepared(i: int) -> PreparedModel:
             return self.prepared.get(bank.names[i], load).prepared
 
-        return identify_with_bank(bank, prepared, features, config=self.config,
-                                  space=self.space, rng=rng, t0=t0)
+        result = identify_with_bank(bank, prepared, features, config=self.config,
+                                    space=self.space, rng=rng, t0=t0)
+        if labels is None:
+            return result
+        base = int(np.random.default_rng(rng).integers(0, 2**62))
+
+        def verify(name: str) -> tuple[LocateResult | None, bool | None]:
+            """Model ``name`` located in this pair, and whether it counts as found."""
+            if result.model == name and result.best is not None:
+                return result.best, True
+            hit = next((c.result for c in result.candidates
+                        if c.model == name and c.result is not None), None)
+            if hit is None:
+                if name not in bank.index:
+                    return None, None
+                hit = self.prepared.get(name, load).locate_features(
+                    features, _model_rng(base, name, _LABEL_ATTEMPT), t0=time.perf_counter())
+            # identify_with_bank's test of a candidate
+            return hit, bool(hit.score >= self.min_score
+                             and not hit.visible_outline < self.config.min_visible_outline)
+
+        check = check_label(labels, self._current_labels(), result.model, verify)
+        return replace(result, label=check, seconds=time.perf_counter() - t0)
 
     def all(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
             rng: int | np.random.Generator | None = None, *,

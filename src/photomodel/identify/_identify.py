@@ -63,6 +63,7 @@ from photomodel.fitness import (
     scene_regions,
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
+from photomodel.identify._labels import LabelCheck
 from photomodel.locate import COARSE_SCAN, LocateResult, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
@@ -213,7 +214,11 @@ class IdentifyResult:
         The models searched and the next best-screened (``shown_candidates``), by
         decreasing screening evidence.
     seconds : float
-        Wall time of the whole identification (features included).
+        Wall time of the whole identification (features and labels included).
+    label : LabelCheck or None
+        The label read in the pair, the model it names and whether that is ``model``
+        (:class:`~photomodel.Identifier` reads labels; docs/method/labels.md); None when
+        none was read (or labels were not read). It never changes the answer above.
     """
 
     best: LocateResult | None
@@ -222,6 +227,7 @@ class IdentifyResult:
     runner_up: Candidate | None
     candidates: tuple[Candidate, ...]
     seconds: float
+    label: LabelCheck | None = None
 
     @property
     def model(self) -> str | None:
@@ -239,8 +245,9 @@ class IdentifyResult:
         Same keys as ``locate --json`` for the best model; when none is on the table,
         ``"model": null``, ``"found": false`` and the pose fields null, with ``score`` (and
         ``best_candidate``) telling how close the best one came. Plus ``runner_up``
-        (``{"model", "score"}``, both null without one), ``min_score`` and ``candidates``
-        (the best-screened models' evidence and score, null when not searched).
+        (``{"model", "score"}``, both null without one), ``min_score``, ``candidates``
+        (the best-screened models' evidence and score, null when not searched) and ``label``
+        (:meth:`LabelCheck.to_json_dict`, null when no label was read).
         """
         if self.best is not None and self.found:
             out = self.best.to_json_dict()
@@ -256,6 +263,7 @@ class IdentifyResult:
         out["min_score"] = self.min_score
         out["candidates"] = [{"model": c.model, "evidence": c.evidence, "score": c.score}
                              for c in self.candidates]
+        out["label"] = None if self.label is None else self.label.to_json_dict()
         return out
 
 

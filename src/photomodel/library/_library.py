@@ -9,6 +9,8 @@ Layout::
                         "models": {"<name>": {"file", "size_mm", "area_mm2", "colours",
                                               "n_in", "n_out", "created_utc", "added_utc",
                                               "file_bytes", "file_mtime_ns", "descriptor"}}}
+    DIR/labels.json    optional: the label map, {"format": "photomodel-labels", "version": 1,
+                        "labels": {"<label text>": "<model name>"}}
 
 The model files are the truth; the index caches what listing needs (name, size, main colours,
 dates) and each model's descriptor (:class:`~photomodel.model.ModelDescriptor`, what
@@ -34,6 +36,12 @@ entries. Readers need no lock: they see the old index or the new one, never a to
 An index written before descriptors existed (or holding one that does not parse, which is
 noted) is upgraded by :meth:`ModelLibrary.described`: the missing descriptors are computed from
 the model files and the index rewritten under the lock, every other entry kept as it was.
+
+The label map (``photomodel models label NAME CODE``) names the model a garment's barcode,
+QR code or DataMatrix stands for (:meth:`ModelLibrary.labels`, read by
+:class:`~photomodel.Identifier`); :meth:`ModelLibrary.set_label` and
+:meth:`ModelLibrary.remove_label` change it under the same lock and write it the same way,
+and only for a model the library holds; removing a model drops its labels.
 """
 
 from __future__ import annotations
@@ -57,12 +65,14 @@ from photomodel.model._descriptor import ModelDescriptor, describe_model
 
 __all__ = [
     "INDEX_NAME",
+    "LABELS_NAME",
     "LIBRARY_FORMAT_VERSION",
     "LOOKED_FOR",
     "LibraryEntry",
     "LibraryScan",
     "ModelLibrary",
     "Skipped",
+    "check_label_code",
     "check_model_name",
     "main_colours",
 ]
@@ -77,7 +87,12 @@ LOOKED_FOR = ("photo-model files of any name, such as NAME.model or NAME.npz, as
 """What a scan looks for, for messages about a library without models."""
 _LOCK_NAME = ".index.lock"
 _FORMAT = "photomodel-library"
-_OWN_FILES = frozenset({INDEX_NAME, "threshold.json"})
+LABELS_NAME = "labels.json"
+LABELS_FORMAT_VERSION = 1
+MAX_LABEL_CHARS = 500
+"""Longest label text in the map."""
+_LABELS_FORMAT = "photomodel-labels"
+_OWN_FILES = frozenset({INDEX_NAME, LABELS_NAME, "threshold.json"})
 """The library's own files (``threshold.json``: :data:`photomodel.locate.THRESHOLD_FILE`),
 never read as models."""
 _PREVIEW_ENDING = ".preview.png"
@@ -249,6 +264,34 @@ def check_model_name(name: str, source: str = "name") -> str:
     return name
 
 
+def check_label_code(code: str, source: str = "code") -> str:
+    """``code`` if it can be a label's text in a label map, else InputError naming
+    ``source``: 1 to :data:`MAX_LABEL_CHARS` printable characters (what a reader reports of
+    a barcode, QR code or DataMatrix; no line break or control character)."""
+    if not isinstance(code, str) or not code:
+        raise InputError(source, "a label code must not be empty")
+    if not code.isprintable() or len(code) > MAX_LABEL_CHARS:
+        shown = ascii(code[:60]) + ("..." if len(code) > 60 else "")
+        raise InputError(source, f"{shown} cannot be a label code: at most {MAX_LABEL_CHARS} "
+                                 "printable characters (no line breaks or control characters)")
+    return code
+
+
+def _write_json(path: Path, data: Any) -> None:
+    """Replace ``path`` with ``data`` as JSON, atomically: a temporary file beside it
+    (``.<name>.tmp-<pid>``), flushed to disk, then renamed over it (call holding
+    :meth:`ModelLibrary._locked`)."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with open(tmp, "w") as fh:
+            fh.write(json.dumps(data, indent=1) + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 class ModelLibrary:
     """A directory of photo-model files, with an index that caches them (see the module
     docstring; a directory of model files without an index is a library too).
@@ -308,12 +351,13 @@ class ModelLibrary:
             os.close(fd)  # releases the lock
 
     def _remove_leftovers(self) -> None:
-        """Remove what killed writers left (call holding the lock): every index temporary,
-        and model temporaries (``.<name>.npz.tmp``, ``.<name>.model.tmp``) older than a
-        minute (a ``photomodel build --out`` straight into the directory, which takes no lock,
-        may be writing a young one)."""
-        for stale in self.root.glob(f".{INDEX_NAME}.tmp-*"):
-            stale.unlink(missing_ok=True)
+        """Remove what killed writers left (call holding the lock): every index and label map
+        temporary, and model temporaries (``.<name>.npz.tmp``, ``.<name>.model.tmp``) older
+        than a minute (a ``photomodel build --out`` straight into the directory, which takes
+        no lock, may be writing a young one)."""
+        for own in (INDEX_NAME, LABELS_NAME):
+            for stale in self.root.glob(f".{own}.tmp-*"):
+                stale.unlink(missing_ok=True)
         now = time.time()
         for stale in (*self.root.glob(".*.npz.tmp"), *self.root.glob(".*.model.tmp")):
             with contextlib.suppress(OSError):
@@ -353,17 +397,9 @@ class ModelLibrary:
 
     def _write_index(self, entries: dict[str, LibraryEntry]) -> None:
         """Replace ``index.json`` atomically (call holding :meth:`_locked`)."""
-        data = {"format": _FORMAT, "version": LIBRARY_FORMAT_VERSION,
-                "models": {n: entries[n].to_json_dict() for n in sorted(entries)}}
-        tmp = self.root / f".{INDEX_NAME}.tmp-{os.getpid()}"
-        try:
-            with open(tmp, "w") as fh:
-                fh.write(json.dumps(data, indent=1) + "\n")
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, self.index_path)
-        finally:
-            tmp.unlink(missing_ok=True)
+        _write_json(self.index_path, {
+            "format": _FORMAT, "version": LIBRARY_FORMAT_VERSION,
+            "models": {n: entries[n].to_json_dict() for n in sorted(entries)}})
 
     # --- reading -----------------------------------------------------------------------------
 
@@ -591,7 +627,8 @@ class ModelLibrary:
         return entries[model.name]
 
     def remove(self, name: str) -> LibraryEntry:
-        """Delete model ``name``'s file and its index entry; InputError when there is none."""
+        """Delete model ``name``'s file and its index entry, and the labels naming it (a
+        label map that cannot be read is left as it is); InputError when there is none."""
         with self._locked():
             scan = self.scan()
             entries = {e.name: e for e in scan.entries}
@@ -600,7 +637,122 @@ class ModelLibrary:
             gone = entries.pop(name)
             self._write_index(entries)
             (self.root / gone.file).unlink(missing_ok=True)
+            with contextlib.suppress(InputError):
+                labels = self.labels()
+                if name in labels.values():
+                    self._write_labels({c: n for c, n in labels.items() if n != name})
         return gone
+
+    # --- the label map -----------------------------------------------------------------------
+
+    @property
+    def labels_path(self) -> Path:
+        """``DIR/labels.json``."""
+        return self.root / LABELS_NAME
+
+    def labels(self) -> dict[str, str]:
+        """The label map: a label's text (barcode, QR code, DataMatrix) -> the model it names.
+
+        Returns
+        -------
+        dict of str to str
+            Empty when the library has no ``labels.json``.
+
+        Raises
+        ------
+        InputError
+            ``labels.json`` cannot be read or is not a label map (one line naming it).
+        """
+        path = self.labels_path
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return {}
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(path, f"cannot read the label map ({_why_text(exc)})") from None
+        try:
+            data = json.loads(text)
+            if not isinstance(data, dict) or data.get("format") != _LABELS_FORMAT:
+                raise ValueError(f"expected a JSON object with \"format\": \"{_LABELS_FORMAT}\"")
+            version = data.get("version")
+            if isinstance(version, bool) or not isinstance(version, int):
+                raise ValueError(f"version: expected an integer, got {version!r}"[:120])
+            if version > LABELS_FORMAT_VERSION:
+                raise ValueError(f"version {version} is newer than this photomodel reads "
+                                 f"({LABELS_FORMAT_VERSION})")
+            labels = data.get("labels")
+            if not isinstance(labels, dict):
+                raise ValueError("labels: expected an object of label text -> model name")
+            for code, name in labels.items():
+                check_label_code(code, "label")
+                if not isinstance(name, str) or _name_problem(name) is not None:
+                    raise ValueError(f"label {code[:60]!r} names {str(name)[:60]!r}, which "
+                                     "cannot be a model name")
+        except (ValueError, InputError) as exc:
+            problem = exc.problem if isinstance(exc, InputError) else str(exc)
+            raise InputError(path, f"not a photomodel label map ({_printable(problem)[:200]}); "
+                                   "fix or remove it") from None
+        return dict(labels)
+
+    def _write_labels(self, labels: dict[str, str]) -> None:
+        """Replace ``labels.json`` atomically (call holding :meth:`_locked`)."""
+        _write_json(self.labels_path, {"format": _LABELS_FORMAT,
+                                       "version": LABELS_FORMAT_VERSION,
+                                       "labels": {c: labels[c] for c in sorted(labels)}})
+
+    def set_label(self, code: str, name: str, *, replace: bool = False) -> str | None:
+        """Let label text ``code`` name model ``name`` (``photomodel models label NAME CODE``).
+
+        Parameters
+        ----------
+        code : str
+            What the label encodes (:func:`check_label_code`).
+        name : str
+            A model of the library.
+        replace : bool
+            Move a label that names another model to ``name`` (otherwise that is an error).
+
+        Returns
+        -------
+        str or None
+            The model ``code`` named before (``name`` itself when nothing changed), None when
+            it was not in the map.
+
+        Raises
+        ------
+        InputError
+            A bad code, a model the library does not hold, a code that names another model
+            (without ``replace``), an unreadable label map; nothing is written then.
+        """
+        check_label_code(code)
+        with self._locked():
+            names = {e.name for e in self.scan().entries}
+            if name not in names:
+                raise InputError(self.root, f"no model named {str(name)[:100]!r} in the "
+                                            "library: a label must name one of its models "
+                                            "(photomodel models list)")
+            labels = self.labels()
+            old = labels.get(code)
+            if old is not None and old != name and not replace:
+                raise InputError(self.labels_path, f"label {code[:100]!r} already names model "
+                                                   f"{old!r} (use --replace to move it to "
+                                                   f"{name!r})")
+            if old != name:
+                labels[code] = name
+                self._write_labels(labels)
+        return old
+
+    def remove_label(self, code: str) -> str:
+        """Drop label text ``code`` from the map; the model it named. InputError when the
+        map does not hold it (or cannot be read); nothing is written then."""
+        with self._locked():
+            labels = self.labels()
+            if code not in labels:
+                raise InputError(self.labels_path if self.labels_path.exists() else self.root,
+                                 f"no label {str(code)[:100]!r} in the label map")
+            name = labels.pop(code)
+            self._write_labels(labels)
+        return name
 
     def reindex(self) -> LibraryScan:
         """Rewrite ``index.json`` from the files (skipped files stay out); returns the scan."""
@@ -623,6 +775,13 @@ def _duplicate(name: str, used: str) -> str:
     """The note on a file whose model name the file ``used`` holds too."""
     return (f"model name {name!r} is already taken by {used}, which the library uses (move "
             "this file out, or add it under another name with photomodel models add --name)")
+
+
+def _why_text(exc: Exception) -> str:
+    """An OS or decoding error in a few words."""
+    if isinstance(exc, UnicodeDecodeError):
+        return "not UTF-8 text"
+    return str(getattr(exc, "strerror", None) or exc)[:160]
 
 
 def _why(exc: Exception) -> str:

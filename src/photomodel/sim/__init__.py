@@ -7,7 +7,8 @@ its place in the cell (mount on the PA10, table, photographing pose: :func:`defa
 exact renderer for flat items and a mesh renderer for wrinkled cloth, :func:`write_dataset`
 (what ``photomodel simulate`` runs), tables of piled garments (:func:`random_table`,
 :class:`TableLayout`, ``simulate --table``) and stereo sequences with per-frame truth for trackers
-(:func:`write_sequences`, ``simulate --sequences``).
+(:func:`write_sequences`, ``simulate --sequences``), and printed labels on garments
+(:func:`labelled_garment`, ``simulate --labels``).
 
 Frames follow docs/contracts.md: a texture (and garment) frame has x along the texture's
 columns, y along its rows and z into the plane; ``T_a_b`` maps frame b to frame a; lengths in
@@ -38,6 +39,14 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "load_garment",
         ],
         "_cell_geometry": ["default_hand_eye", "photo_configuration", "table_in_base"],
+        "_labels": [
+            "LABEL_FORMATS",
+            "MODULE_PX_RANGE",
+            "GarmentLabel",
+            "article_code",
+            "labelled_garment",
+            "random_label",
+        ],
         "_live": ["ConveyorView"],
         "_presets": ["CONDITIONS"],
         "_random_catalogue": [
@@ -144,11 +153,13 @@ __all__ = [
     "FABRICS",
     "GARMENT_GROUPS",
     "GARMENT_SHAPES",
+    "LABEL_FORMATS",
     "LENSES",
     "MAX_CATALOGUE",
     "MAX_TABLE_GARMENTS",
     "MIN_TABLE_GARMENTS",
     "MODEL_DISTANCE_MM",
+    "MODULE_PX_RANGE",
     "MODEL_GREEN_BGR",
     "OBJECT_KINDS",
     "PHOTO_PRINTS",
@@ -166,6 +177,7 @@ __all__ = [
     "DatasetSummary",
     "Fold",
     "Garment",
+    "GarmentLabel",
     "GarmentSpec",
     "GarmentTruth",
     "Layer",
@@ -183,6 +195,7 @@ __all__ = [
     "TableShot",
     "Wrinkles",
     "add_sensor_noise",
+    "article_code",
     "blur",
     "camo_fabric",
     "catalogue_garment",
@@ -204,6 +217,7 @@ __all__ = [
     "hand_table_pose",
     "hsv_to_bgr",
     "known_garments",
+    "labelled_garment",
     "load_garment",
     "lookalike_of",
     "make_garment",
@@ -220,6 +234,7 @@ __all__ = [
     "plaid_fabric",
     "plain_fabric",
     "print_fabric",
+    "random_label",
     "random_stereo_scene",
     "random_table",
     "render_mesh_layer",

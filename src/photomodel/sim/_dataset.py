@@ -9,6 +9,7 @@
     DIR/scenes/<id>/right.png          camera 1
     DIR/scenes/<id>/left.png           camera 2 (with ``table``: ids ``table<N>_<index>``)
     DIR/truth.json                     {"<id>": {"model": ..., "T_cam1_model": ..., ...}}
+                                       (with ``labels``: the target's ``label`` too)
     DIR/dataset.json                   how it was made: seed, garments, conditions, versions
     DIR/calibration/                   chessboard views with their truth (only with
                                        ``calibration_views``; photomodel.sim._calibration)
@@ -152,6 +153,7 @@ def write_dataset(
     calibration_views: int = 0,
     workers: int | None = None,
     table: int | None = None,
+    labels: bool = False,
 ) -> DatasetSummary:
     """Simulate a dataset: model photos of each garment and stereo scenes with their truth.
 
@@ -197,6 +199,13 @@ def write_dataset(
         conditions, ``<condition>_table<N>_<index>``), their truth the pick-first garment's
         ``model`` and ``T_cam1_model`` plus ``table``, ``garments`` and ``distractors``
         (docs/contracts.md). A table's images depend on the whole list of garments.
+    labels : bool
+        Every garment (catalogue and ``extra_garments``; not the library's) carries a printed
+        label (:func:`~photomodel.sim.random_label`: a QR code, DataMatrix or Code 128 of
+        :func:`~photomodel.sim.article_code`, its size, place and format drawn from the
+        seed and the garment's name), in its model photos and scenes; each scene's truth
+        gains ``label`` (:meth:`~photomodel.sim.GarmentLabel.truth`; on a table, each
+        garment's entry), ``dataset.json`` each garment's label. Needs zxing-cpp.
 
     Returns
     -------
@@ -238,6 +247,11 @@ def write_dataset(
         chosen[name] = garment
     for name in chosen:
         check_garment_name(name)
+    if labels:
+        from photomodel.sim._labels import random_label
+
+        chosen = {name: random_label(g, name, seed, scene_rng(seed, "label", name))
+                  for name, g in chosen.items()}
     shelf = _library_names(library, chosen)
     specs = list(dict.fromkeys(conditions))
     if not specs:
@@ -301,6 +315,10 @@ def write_dataset(
                     right, left, facts = _table_scene(list(chosen.values()), table, rig, cond,
                                                       scene_rng(seed, spec, f"table{table}", k),
                                                       spec)
+                    for g in facts.get("garments", []):
+                        label = chosen[g["model"]].label if g["model"] in chosen else None
+                        if label is not None:
+                            g["label"] = label.truth(rig, np.asarray(g["T_cam1_model"]))
                 else:
                     target = chosen[name] if name is not None else None
                     shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
@@ -312,6 +330,9 @@ def write_dataset(
                         "condition": spec,
                         **shot.info,
                     }
+                    if (target is not None and target.label is not None
+                            and shot.T_cam1_model is not None):
+                        facts["label"] = target.label.truth(rig, shot.T_cam1_model)
                 write_image(tmp / "scenes" / scene_id / "right.png", right)
                 write_image(tmp / "scenes" / scene_id / "left.png", left)
                 # The text dumps_json gives this entry inside the whole dict.
@@ -518,7 +539,12 @@ def _manifest(seed: int, garments: Mapping[str, Garment], parsed: Mapping[str, C
         "scenes_per_garment": int(scenes),
         "garments": {name: {"size_mm": list(g.size_mm), "shape": g.shape,
                             "fabric": g.fabric,
-                            "description": g.description}
+                            "description": g.description,
+                            **({} if g.label is None else {"label": {
+                                "text": g.label.text, "format": g.label.format,
+                                "module_mm": g.label.module_mm,
+                                "centre_mm": list(g.label.centre_mm),
+                                "angle_deg": g.label.angle_deg}})}
                      for name, g in garments.items()},
         "conditions": {spec: dataclasses.asdict(c) for spec, c in parsed.items()},
     }

@@ -11,6 +11,7 @@ sampled finely enough that the rasterised outline looks smooth at 0.5 mm per pix
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -29,6 +30,9 @@ from photomodel.sim._textures import (
     print_fabric,
     stripe_fabric,
 )
+
+if TYPE_CHECKING:
+    from photomodel.sim._labels import GarmentLabel
 
 __all__ = ["FABRICS", "GARMENT_SHAPES", "Garment", "garment_outline_mm", "make_garment"]
 
@@ -79,6 +83,9 @@ class Garment:
         Colour (BGR 0-255) of the model station's plane this garment is photographed on
         (:func:`~photomodel.sim.render_model_photos`); None: the green
         :data:`~photomodel.sim.MODEL_GREEN_BGR`.
+    label : GarmentLabel or None
+        The printed label pasted into ``texture`` (:func:`~photomodel.sim.labelled_garment`),
+        None when it carries none.
     """
 
     name: str
@@ -88,6 +95,7 @@ class Garment:
     fabric: str = ""
     description: str = ""
     plane_bgr: tuple[int, int, int] | None = None
+    label: GarmentLabel | None = None
 
 
 def _neck(w: float, h: float, n: int = 12) -> NDArray[np.float64]:
