@@ -307,3 +307,32 @@ def test_opcua_face_without_register_has_no_register_method() -> None:
     with OpcUaThread(plain) as running:
         code = _session(running.endpoint_url, body)
     assert code in ("BadMethodInvalid", "BadNodeIdUnknown", "BadNodeIdInvalid"), code
+
+
+def test_a_model_of_unknown_scale_is_stored_at_a_confirmed_scale(service: ServiceThread
+                                                                 ) -> None:
+    import warnings
+
+    from photomodel.model import build_unknown_scale, load_model, scale_known
+    from photomodel.sim import catalogue_garment, model_station_camera, render_model_photos
+
+    photo, _ = render_model_photos(catalogue_garment("No.2"), model_station_camera(), rng=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        nominal = build_unknown_scale(photo, name="phone").model
+    service.cell.adopt(nominal)
+    url = service.url
+    scale_url = f"{url}/models/phone/scale"
+    _error(httpx.post(scale_url, files={"factor": (None, "100")}, timeout=TIMEOUT_S), 400,
+           "factor")
+    _error(httpx.post(scale_url, files={"result": (None, "nosuchid")}, timeout=TIMEOUT_S),
+           404, "nosuchid")
+    _error(httpx.post(f"{url}/models/nope/scale", files={"factor": (None, "0.5")},
+                      timeout=TIMEOUT_S), 404, "nope")
+    done = httpx.post(scale_url, files={"factor": (None, "0.5657")}, timeout=TIMEOUT_S)
+    assert done.status_code == 200, done.text
+    assert done.json()["scale"] == pytest.approx(0.5657)
+    stored = load_model(service.cell.library.root / "phone.npz")
+    assert scale_known(stored) and stored.size_mm[1] == pytest.approx(200, abs=5)
+    _error(httpx.post(scale_url, files={"factor": (None, "0.5")}, timeout=TIMEOUT_S), 400,
+           "known scale")

@@ -1,5 +1,5 @@
-"""``photomodel models list|add|remove|show|reindex|label|unlabel|labels``: manage a model
-library directory and its label map."""
+"""``photomodel models list|add|remove|show|reindex|label|unlabel|labels|set-scale``: manage a
+model library directory, its label map and the scale of its models of unknown scale."""
 
 from __future__ import annotations
 
@@ -70,6 +70,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     labels.add_argument("--models", required=True, type=Path, help="library directory")
     labels.add_argument("--json", action="store_true", help="print one JSON object")
     labels.set_defaults(run=run_labels)
+    scale = actions.add_parser(
+        "set-scale", help="store a model of unknown scale at its measured scale",
+        description="A model built with --scale unknown has nominal millimetres until its "
+                    "first locate measures the real scale from a stereo pair (locate --json "
+                    "reports it as scale). set-scale stores the model at that scale, sampled "
+                    "anew; its locates are then ordinary.")
+    scale.add_argument("--models", required=True, type=Path, help="library directory")
+    scale.add_argument("name", help="model name")
+    given = scale.add_mutually_exclusive_group(required=True)
+    given.add_argument("--from-result", type=Path,
+                       help="a locate --json answer of this model that found it and measured "
+                            "its scale")
+    given.add_argument("--factor", type=float, help="real mm per nominal mm")
+    scale.set_defaults(run=run_set_scale)
 
 
 def warn_skipped(skipped: tuple[Skipped, ...] | list[Skipped] | list[str]) -> None:
@@ -213,4 +227,44 @@ def run_labels(args: argparse.Namespace) -> int:
     for code in sorted(labels):
         print(f"{code!r:<{width}}  {labels[code]}")
     print(f"{len(labels)} label(s)")
+    return 0
+
+
+def run_set_scale(args: argparse.Namespace) -> int:
+    from photomodel._limits import read_capped
+    from photomodel.errors import InputError
+    from photomodel.library import ModelLibrary, check_model_name
+    from photomodel.model import resampled_model, scale_known
+
+    check_model_name(args.name, "NAME")
+    factor, source = args.factor, f"factor {args.factor}"
+    if args.from_result is not None:
+        raw = read_capped(args.from_result, "locate result", 1 << 20)
+        try:
+            answer = json.loads(raw)
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(args.from_result, f"not a locate --json answer ({exc})") from None
+        if not isinstance(answer, dict) or answer.get("model") != args.name:
+            raise InputError(args.from_result, f"is no locate answer of model {args.name!r}")
+        factor = answer.get("scale")
+        if isinstance(factor, bool) or not isinstance(factor, int | float):
+            raise InputError(args.from_result, "has no measured scale (a locate of a model "
+                                               "of unknown scale reports one)")
+        if answer.get("found") is not True:
+            raise InputError(args.from_result, "did not find the garment: its scale is not "
+                                               "confirmed")
+        source = f"locate result {args.from_result.name}"
+    library = ModelLibrary(args.models)
+    model = library.load_entry(library.entry(args.name))
+    if scale_known(model):
+        raise InputError(args.name, "has a known scale already")
+    try:
+        scaled = resampled_model(model, float(factor), source=source)
+    except ValueError as exc:
+        raise InputError("--factor" if args.from_result is None else args.from_result,
+                         str(exc).removeprefix("scale: ")) from None
+    entry = library.add_model(scaled, replace=True)
+    print(f"{args.name}: scale {float(factor):.5f} mm per nominal mm stored "
+          f"({entry.size_mm[0]:.0f} x {entry.size_mm[1]:.0f} mm, {entry.n_in} points inside) "
+          f"in {args.models}/{entry.file}")
     return 0
