@@ -46,8 +46,8 @@ GENERATE = "python scripts/bad_inputs.py --out docs/bad-inputs.md"
 TIMEOUT_S = 300.0
 MAX_LINE_CHARS = 300
 
-GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Tracking",
-          "Camera sources", "Options")
+GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Registering",
+          "Tracking", "Camera sources", "Options")
 
 # The valid files every case starts from (written by `setup`); a case replaces one of them.
 VALID = {
@@ -154,6 +154,51 @@ def _writes(name: str, make: Callable[[Path], bytes]) -> Callable[[Path], None]:
         path.write_bytes(make(work))
 
     return prepare
+
+
+def _rolled(work: Path) -> None:
+    """``rolled_r.png`` and ``rolled_l.png``: the scene's views rolled sideways so that the
+    garment's middle (camera 1's pixels unlike the border's colour) lies on the image border."""
+    right = cv2.imread(str(work / "right.png"))
+    band = np.concatenate([right[:8].reshape(-1, 3), right[-8:].reshape(-1, 3)])
+    far = np.abs(right.astype(np.int32) - np.median(band, axis=0)).sum(axis=2) > 60
+    shift = -int(np.nonzero(far)[1].mean()) if far.any() else right.shape[1] // 2
+    for side, name in (("right", "rolled_r.png"), ("left", "rolled_l.png")):
+        (work / name).write_bytes(_image_of(work, f"{side}.png", lambda im: np.roll(
+            im, shift, axis=1)))
+
+
+def _register_cases() -> list[Case]:
+    """``build`` in place and of unknown scale (the scene's pair as the garment where it
+    lies): views of different sizes, an "empty" pair with the garment in it, a garment cut by
+    the image border, a photo of unknown scale with nothing on it, a mix of modes."""
+    def run(name: str, *options: str, prepare: Callable[[Path], None] | None = None) -> Case:
+        slug = re.sub(r"[^a-z0-9]+", "-", name.lower()).strip("-")
+        out = f"out/reg-{slug}.model"
+        argv = ("build", *options, "--out", out)
+        return Case("Registering", name, argv, " ".join(["build", *map(_shell_word, options)]),
+                    prepare=prepare, verify=_absent(out, out.replace(".model", ".preview.png")))
+
+    pair = ("--stereo", "stereo.yaml", "--right", "right.png")
+    return [
+        run("views of different sizes (left 320 x 240)", *pair, "--left", "small.png",
+            prepare=_writes("small.png", lambda w: _image_of(
+                w, "left.png", lambda im: cv2.resize(im, (320, 240))))),
+        run("an empty pair with the garment in it", *pair, "--left", "left.png",
+            "--empty-right", "right.png", "--empty-left", "left.png"),
+        run("one empty view without the other", *pair, "--left", "left.png", "--empty-right",
+            "right.png"),
+        run("a garment cut by the image border (the views rolled to put it there)",
+            "--stereo", "stereo.yaml", "--right", "rolled_r.png", "--left", "rolled_l.png",
+            prepare=_rolled),
+        run("a photo of unknown scale with nothing on it", "--scale", "unknown", "--photo",
+            "plain.png", prepare=_writes("plain.png", lambda w: _image_of(
+                w, "right.png", lambda im: np.full_like(im, 128)))),
+        run("in place and a station photo at once", *pair, "--left", "left.png", "--photo",
+            "photo.bmp"),
+        run("unknown scale with a camera calibration", "--scale", "unknown", "--photo",
+            "photo.bmp", "--camera", "camera.yaml"),
+    ]
 
 
 def _absent(*names: str) -> Callable[[Path], str | None]:
@@ -832,6 +877,7 @@ def cases() -> list[Case]:
         _case("Options", "empty x range (`--x-mm 100 -100`)", "locate", "--x-mm", "100", "-100"),
         _case("Options", "sampling step of 1 m", "build", "--step-mm", "1000",
               verify=_absent("out/options-sampling-step-of-1-m.npz")),
+        *_register_cases(),
         _case("Options", "unknown option", "locate", "--bogus"),
         _case("Options", "`simulate --force` onto a file", "simulate", "--out", "notes.txt", *sim,
               "--force", prepare=keep_prepare, verify=keep_verify),

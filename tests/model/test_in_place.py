@@ -300,3 +300,11 @@ def test_a_calibration_without_image_size_takes_the_views_size(data: InPlaceData
     small = cv2.resize(case.shot.left_bgr, (320, 240))
     with pytest.raises(InputError, match=r"^left: size 320x240 differs"):
         build_in_place(no_size, case.shot.right_bgr, small)
+
+
+def test_views_that_do_not_match_give_no_plane(data: InPlaceData) -> None:
+    # camera 2's view of another place: stereo finds no table under the garment
+    shot = data.cases["No.5"].shot
+    other = np.roll(shot.left_bgr, shot.left_bgr.shape[1] // 2, axis=1)
+    with pytest.raises((InputError, NoGarmentError), match=r"plane"):
+        build_in_place(data.rig, shot.right_bgr, other)

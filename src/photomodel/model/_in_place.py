@@ -57,6 +57,9 @@ RANSAC_TOLERANCE_MM = 2.0
 RANSAC_ITERATIONS = 200
 BAND_PX = 12
 """Width of the table band around the garment a textureless garment's plane fit adds."""
+MAX_TILT_DEG = 30.0
+"""Largest angle between the measured plane and a plane facing the rig that is taken for the
+table (a garment on a table the rig looks down on lies within a few degrees of it)."""
 
 
 @dataclass(frozen=True)
@@ -466,6 +469,14 @@ def build_in_place(
                                    "in view): move the hand or the garment so that all of it "
                                    "shows")
     plane = measure_plane(rig, right_bgr, left_bgr, rough)
+    tilt = float(np.degrees(np.arccos(np.clip(plane.normal_cam1 @ rig.R_cam1_facing[:, 2],
+                                              -1.0, 1.0))))
+    if not (tilt <= MAX_TILT_DEG and DEPTH_RANGE_MM[0] <= plane.distance_mm
+            <= DEPTH_RANGE_MM[1]):
+        raise InputError(names[0], f"the stereo pair gives no table plane under the garment "
+                                   f"({tilt:.0f} deg from facing the rig, "
+                                   f"{plane.distance_mm:.0f} mm away): is the garment flat "
+                                   f"on the table, wholly in both views?")
     ortho = orthophoto(rig.cam1, plane, size=_size(right_bgr))
     photo = ortho.resample(right_bgr)
     background = (ortho.resample(empty_right_bgr) if empty_right_bgr is not None
