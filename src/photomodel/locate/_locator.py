@@ -25,8 +25,7 @@ from photomodel.locate._locate import (
 from photomodel.locate._prepare import prepare_model
 from photomodel.locate._scale import locate_unknown_scale
 from photomodel.locate._threshold import load_threshold
-from photomodel.model import PhotoModel
-from photomodel.model._scale import resampled_model, scale_known
+from photomodel.model import PhotoModel, resampled_model, scale_known
 from photomodel.search import PyramidConfig, SearchSpace
 
 __all__ = ["Locator"]

@@ -22,8 +22,7 @@ import numpy as np
 
 from photomodel.fitness import PreparedModel, StereoFeatures, scene_regions
 from photomodel.locate._locate import LocateResult, locate_in_features
-from photomodel.model import PhotoModel, describe_model
-from photomodel.model._scale import MAX_SCALE, resampled_model
+from photomodel.model import MAX_SCALE, PhotoModel, describe_model, resampled_model
 from photomodel.search import GaussNewtonConfig, PyramidConfig, SearchSpace
 
 __all__ = ["FREE_SCALE", "SCALE_TOLERANCE", "initial_scales", "locate_unknown_scale"]

@@ -11,13 +11,15 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_in_place": ["InPlaceBuild", "TablePlane", "build_in_place", "measure_plane"],
         "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
         "_preview": ["render_preview"],
-        "_scale": ["build_unknown_scale", "resampled_model", "scale_known"],
+        "_scale": ["MAX_SCALE", "build_unknown_scale", "resampled_model", "scale_known",
+                   "scaled_model"],
     },
 )
 
 __all__ = [
     "DESCRIPTOR_VERSION",
     "FORMAT_VERSION",
+    "MAX_SCALE",
     "BuildConfig",
     "BuildQuality",
     "BuildResult",
@@ -36,4 +38,5 @@ __all__ = [
     "resampled_model",
     "save_model",
     "scale_known",
+    "scaled_model",
 ]
