@@ -7,9 +7,11 @@ it lies, with no model station.
 2. **The garment's plane by stereo** (:func:`measure_plane`): both views rectified
    (``cv2.stereoRectify``), semi-global matching (``cv2.StereoSGBM``) over the disparities of
    the search box's depths, every matched pixel of the rough garment (eroded clear of its
-   outline) triangulated in camera 1's frame, a plane fitted by RANSAC and least squares on
-   its inliers. A garment without texture leaves too few matches inside: the fit then takes
-   the garment and a band of table around it (the outline's edges match well).
+   outline) where the image has texture (:data:`MIN_TEXTURE`) triangulated in camera 1's
+   frame, a plane fitted by RANSAC and least squares on its inliers, then refined to the
+   subpixel on the grey levels. A garment with too little texture for
+   :data:`MIN_PLANE_POINTS` such pixels takes a band of table around it too (the outline's
+   edges match well).
 3. **Orthophoto**: a virtual camera at camera 1's centre, looking along the plane's normal with
    camera 1's focal length (so one pixel is about what camera 1 resolves there), sees the
    plane as a fronto-parallel photo; camera 1's image is resampled into it through the lens
@@ -50,9 +52,13 @@ __all__ = ["InPlaceBuild", "TablePlane", "build_in_place", "measure_plane", "ort
 
 DEPTH_RANGE_MM = (400.0, 1200.0)
 """Depths of the table the stereo matching covers (the search box's 500-900 mm and a margin)."""
-MIN_PLANE_POINTS = 500
-"""Fewest matched pixels of the garment itself a plane is fitted to (else a band of table
-around it joins them)."""
+MIN_PLANE_POINTS = 2000
+"""Fewest matched, textured pixels of the garment itself a plane is fitted to (else a band of
+table around it joins them)."""
+MIN_TEXTURE = 3.0
+"""Least horizontal grey-level gradient (levels a pixel, after a 1 px blur) of a pixel whose
+match counts: inside a plain garment, semi-global matching's disparities are its smoothness
+term's guesses, and the photometric refinement has nothing to hold on to."""
 RANSAC_TOLERANCE_MM = 2.0
 RANSAC_ITERATIONS = 200
 BAND_PX = 12
@@ -170,11 +176,15 @@ def _disparity(g1: NDArray[np.uint8], g2: NDArray[np.uint8], f_tx: float,
 
 def _refine_disparity_plane(g1: NDArray[np.uint8], g2: NDArray[np.uint8],
                             use: NDArray[np.bool_], abc: NDArray[np.float64],
-                            iterations: int = 12) -> NDArray[np.float64]:
+                            iterations: int = 12, max_change_px: float = 1.0
+                            ) -> NDArray[np.float64]:
     """The plane's disparity ``d = a u + b v + c`` (rectified camera 1 pixels; a plane's
     disparity is affine there) refined to the subpixel by Gauss-Newton on the grey levels of
-    the ``use`` pixels: ``gain g2(u + d, v) + offset = g1(u, v)``, Huber-weighted. Semi-global
-    matching's subpixel disparities lean towards whole pixels; this does not."""
+    the ``use`` pixels: ``gain g2(u + d, v) + offset = g1(u, v)``, Huber-weighted, a step kept
+    only when it lowers the cost (halved up to four times otherwise). Semi-global matching's
+    subpixel disparities lean towards whole pixels; this does not. A refinement that moves the
+    disparity by more than ``max_change_px`` anywhere in the region (a periodic print can lead
+    it a period astray) is dropped: ``abc`` comes back unchanged."""
     f1 = cv2.GaussianBlur(g1.astype(np.float32), (0, 0), 1.0).astype(np.float64)
     f2 = cv2.GaussianBlur(g2.astype(np.float32), (0, 0), 1.0).astype(np.float64)
     gx2 = cv2.Sobel(f2, cv2.CV_64F, 1, 0, ksize=3) / 8.0
@@ -182,21 +192,49 @@ def _refine_disparity_plane(g1: NDArray[np.uint8], g2: NDArray[np.uint8],
     step = max(1, len(u) // 40000)
     u, v = u[::step].astype(np.float64), v[::step].astype(np.float64)
     target = f1[v.astype(int), u.astype(int)]
-    params = np.array([*abc, 1.0, 0.0])
-    for _ in range(iterations):
-        at = np.stack([v, u + params[0] * u + params[1] * v + params[2]])
+    u0, v0 = float(u.mean()), float(v.mean())
+    du, dv = u - u0, v - v0                   # centred: a, b and c apart in the normal matrix
+
+    def residual(p: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        at = np.stack([v, u + p[0] * du + p[1] * dv + p[2]])
         i2 = map_coordinates(f2, at, order=1, mode="nearest")
+        return p[3] * i2 + p[4] - target, i2, at
+
+    start = np.array([abc[0], abc[1], abc[0] * u0 + abc[1] * v0 + abc[2], 1.0, 0.0])
+    params = start.copy()
+    r, i2, at = residual(params)
+    scale = 1.4826 * float(np.median(np.abs(r))) + 1e-6
+
+    def cost(res: NDArray[np.float64]) -> float:
+        a = np.abs(res)
+        return float(np.where(a <= 1.5 * scale, 0.5 * a**2, 1.5 * scale * (a - 0.75 * scale))
+                     .sum())
+
+    current = cost(r)
+    for _ in range(iterations):
         gx = map_coordinates(gx2, at, order=1, mode="nearest")
-        r = params[3] * i2 + params[4] - target
-        J = np.column_stack([params[3] * gx * u, params[3] * gx * v, params[3] * gx, i2,
+        J = np.column_stack([params[3] * gx * du, params[3] * gx * dv, params[3] * gx, i2,
                              np.ones_like(u)])
-        scale = 1.4826 * float(np.median(np.abs(r))) + 1e-6
         w = np.minimum(1.0, 1.5 * scale / np.maximum(np.abs(r), 1e-9))
-        step_ = np.linalg.lstsq(J * w[:, None] ** 0.5, -r * w**0.5, rcond=None)[0]
-        params += step_
-        if np.abs(step_[:3] * [u.max(), v.max(), 1.0]).max() < 1e-3:
+        delta = np.linalg.lstsq(J * w[:, None] ** 0.5, -r * w**0.5, rcond=None)[0]
+        for _ in range(5):
+            trial = params + delta
+            r_t, i2_t, at_t = residual(trial)
+            if cost(r_t) < current:
+                break
+            delta = 0.5 * delta
+        else:
             break
-    return params[:3]
+        params, r, i2, at, current = trial, r_t, i2_t, at_t, cost(r_t)
+        if np.abs(delta[:3] * [np.abs(du).max(), np.abs(dv).max(), 1.0]).max() < 1e-3:
+            break
+    change = (params - start)[:3]
+    corners = np.array([[du.min(), dv.min(), 1.0], [du.max(), dv.max(), 1.0],
+                        [du.min(), dv.max(), 1.0], [du.max(), dv.min(), 1.0]])
+    if np.abs(corners @ change).max() > max_change_px:
+        return np.asarray(abc, dtype=np.float64)
+    a, b, c = params[:3]
+    return np.array([a, b, c - a * u0 - b * v0])
 
 
 def measure_plane(rig: StereoRig, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
@@ -232,13 +270,15 @@ def measure_plane(rig: StereoRig, right_bgr: NDArray[np.uint8], left_bgr: NDArra
     disp = _disparity(g1, g2, f_tx, depth_mm)
     garment = cv2.remap(mask_cam1.astype(np.uint8), m1x, m1y, cv2.INTER_NEAREST) > 0
     inner = cv2.erode(garment.astype(np.uint8), np.ones((5, 5), np.uint8), iterations=2) > 0
+    smooth = cv2.GaussianBlur(g1.astype(np.float32), (0, 0), 1.0)
+    textured = np.abs(cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0) >= MIN_TEXTURE
     band = False
-    use = inner & np.isfinite(disp)
+    use = inner & np.isfinite(disp) & textured
     if np.count_nonzero(use) < MIN_PLANE_POINTS:
         band = True
         grown = cv2.dilate(garment.astype(np.uint8), np.ones((3, 3), np.uint8),
                            iterations=BAND_PX) > 0
-        use = grown & np.isfinite(disp)
+        use = grown & np.isfinite(disp) & textured
     if np.count_nonzero(use) < 50:
         raise NoGarmentError("stereo", f"too few pixels of the garment match between the two "
                                        f"views for its plane ({np.count_nonzero(use)})")
