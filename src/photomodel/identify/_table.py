@@ -452,35 +452,11 @@ def identify_all(
                      coarse_min_score=tc.coarse_min_score)
     # after the first round, what is left is known foreground: its own candidates only, once
     later = replace(hidden, wide_candidates=0, retries=0)
-    looks: dict[int, Appearance] = {}
-
-    def judge(located: list[LocateResult]
-              ) -> tuple[list[tuple[LocateResult, Appearance]], list[NDArray[np.bool_]]]:
-        """The garments found with a round's located candidates (best first) accepted in
-        turn after those of earlier rounds, and the pixels they explain."""
-        now, shown = list(found), list(explained)
-        for best in sorted((r for r in located if r.found), key=lambda r: -r.score):
-            if len(now) >= tc.max_garments:
-                break
-            covered = [np.zeros_like(e) for e in shown]
-            for _, seen in now:
-                covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
-            if id(best) not in looks:
-                looks[id(best)] = appearance(prepared(names[best.model]), best.A_cam1_model,
-                                             features, rays, covered)
-            look = looks[id(best)]
-            taken = _taken(look, now)
-            if not _accepted(best, look, taken, now, min_score, tc) or (
-                    best.score < min_score
-                    and _new_foreground(look, taken, foreground) < tc.min_new_foreground):
-                continue
-            now.append((best, look))
-            shown = [e | s for e, s in zip(shown, look.shows(tc.agree), strict=True)]
-        return now, shown
+    judge = _Judge(prepared, names, features, rays, foreground, min_score, tc)
 
     def enough(located: list[LocateResult]) -> bool:
         """Whether the candidates located so far leave too little unexplained for another."""
-        now, shown = judge(located)
+        now, shown = judge(found, explained, located)
         return (len(now) >= tc.max_garments
                 or _unexplained_mm2(regions, shown, level) < tc.min_unexplained_mm2)
 
@@ -493,8 +469,8 @@ def identify_all(
         if not result.found:
             break
         # every candidate the round located, best first: several garments a round
-        now, explained = judge([cand.result for cand in result.candidates
-                                if cand.result is not None])
+        now, explained = judge(found, explained, [cand.result for cand in result.candidates
+                                                  if cand.result is not None])
         if len(now) == len(found):
             break
         found = now
@@ -504,6 +480,50 @@ def identify_all(
         unexplained_mm2 = _unexplained_mm2(regions, explained, level)
     unknown = _unknown_on(found, explained, foreground, regions, tc)
     return _table_result(found, tc, min_score, unexplained_mm2, unknown, t0)
+
+
+@dataclass
+class _Judge:
+    """Judges a round's located candidates (best first) after the garments of earlier rounds:
+    :func:`_accepted` and, under the threshold, :func:`_new_foreground`; each candidate's
+    appearance map made once."""
+
+    prepared: Callable[[int], PreparedModel]
+    names: dict[str, int]
+    features: StereoFeatures
+    rays: _Rays
+    foreground: NDArray[np.bool_]
+    min_score: float
+    tc: TableConfig
+    looks: dict[int, tuple[LocateResult, Appearance]] = field(default_factory=dict)
+
+    def __call__(self, found: list[tuple[LocateResult, Appearance]],
+                 explained: list[NDArray[np.bool_]], located: list[LocateResult]
+                 ) -> tuple[list[tuple[LocateResult, Appearance]], list[NDArray[np.bool_]]]:
+        """The garments found with ``located`` accepted in turn after ``found``, and the
+        pixels they explain (camera 1, camera 2; ``explained`` by ``found`` before)."""
+        tc = self.tc
+        now, shown = list(found), list(explained)
+        for best in sorted((r for r in located if r.found), key=lambda r: -r.score):
+            if len(now) >= tc.max_garments:
+                break
+            covered = [np.zeros_like(e) for e in shown]
+            for _, seen in now:
+                covered = [a | b for a, b in zip(covered, seen.inside, strict=True)]
+            held = self.looks.get(id(best))
+            if held is None or held[0] is not best:     # (the result kept: its id stays its)
+                held = self.looks[id(best)] = (best, appearance(
+                    self.prepared(self.names[best.model]), best.A_cam1_model, self.features,
+                    self.rays, covered))
+            look = held[1]
+            taken = _taken(look, now)
+            if not _accepted(best, look, taken, now, self.min_score, tc) or (
+                    best.score < self.min_score
+                    and _new_foreground(look, taken, self.foreground) < tc.min_new_foreground):
+                continue
+            now.append((best, look))
+            shown = [e | s for e, s in zip(shown, look.shows(tc.agree), strict=True)]
+        return now, shown
 
 
 def _accepted(best: LocateResult, look: Appearance, explained: list[NDArray[np.bool_]],

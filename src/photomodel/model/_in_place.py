@@ -438,6 +438,30 @@ def _rough_garment(right: NDArray[np.uint8], empty: NDArray[np.uint8],
     return _clean_mask(differs) > 0
 
 
+_CUT = ("the garment is cut by camera 1's image border (not wholly in view): move the hand or "
+        "the garment so that all of it shows")
+
+
+def _check_views(rig: StereoRig, views: tuple[NDArray[np.uint8] | None, ...],
+                 names: list[str]) -> None:
+    """The four views' sizes against the calibration and each other, and the empty pair
+    whole or absent (InputError naming the view)."""
+    right, left, empty_right, empty_left = views
+    assert right is not None and left is not None
+    rig.cam1.check_image(right, names[0])
+    rig.cam2.check_image(left, names[1])
+    for image, source in ((left, names[1]), (empty_right, names[2]), (empty_left, names[3])):
+        if image is not None and image.shape != right.shape:
+            raise InputError(source, f"size {image.shape[1]}x{image.shape[0]} differs from "
+                                     f"{names[0]}'s {right.shape[1]}x{right.shape[0]}")
+    if (empty_right is None) != (empty_left is None):
+        missing = names[3] if empty_left is None else names[2]
+        raise InputError(missing, "give both views of the empty table, or neither")
+    if empty_right is not None and empty_left is not None:
+        rig.cam1.check_image(empty_right, names[2])
+        rig.cam2.check_image(empty_left, names[3])
+
+
 def build_in_place(
     rig: StereoRig,
     right_bgr: NDArray[np.uint8],
@@ -482,32 +506,16 @@ def build_in_place(
     """
     cfg = config or BuildConfig()
     names = [str(s) for s in sources]
-    rig.cam1.check_image(right_bgr, names[0])
-    rig.cam2.check_image(left_bgr, names[1])
-    for image, source in ((left_bgr, names[1]), (empty_right_bgr, names[2]),
-                          (empty_left_bgr, names[3])):
-        if image is not None and image.shape != right_bgr.shape:
-            raise InputError(source, f"size {image.shape[1]}x{image.shape[0]} differs from "
-                                     f"{names[0]}'s {right_bgr.shape[1]}x{right_bgr.shape[0]}")
-    if (empty_right_bgr is None) != (empty_left_bgr is None):
-        missing = names[3] if empty_left_bgr is None else names[2]
-        raise InputError(missing, "give both views of the empty table, or neither")
-    if empty_right_bgr is not None:
-        rig.cam1.check_image(empty_right_bgr, names[2])
-        rig.cam2.check_image(empty_left_bgr, names[3])   # type: ignore[arg-type]
-        table1 = empty_right_bgr
-    else:
-        table1 = _table_photo(right_bgr)
-    rough = _rough_garment(right_bgr, table1, cfg)
+    _check_views(rig, (right_bgr, left_bgr, empty_right_bgr, empty_left_bgr), names)
+    empty = empty_right_bgr is not None
+    rough = _rough_garment(right_bgr, empty_right_bgr if empty_right_bgr is not None
+                           else _table_photo(right_bgr), cfg)
     if np.count_nonzero(rough) < 50:
-        where = (f"{names[2]} (is the garment in the empty pair too?)"
-                 if empty_right_bgr is not None else "the table's colour")
+        where = f"{names[2]} (is the garment in the empty pair too?)" if empty else \
+            "the table's colour"
         raise NoGarmentError(names[0], f"no garment found: nothing differs from {where}")
-    border = np.concatenate([rough[0], rough[-1], rough[:, 0], rough[:, -1]])
-    if np.count_nonzero(border) > 2:
-        raise InputError(names[0], "the garment is cut by camera 1's image border (not wholly "
-                                   "in view): move the hand or the garment so that all of it "
-                                   "shows")
+    if np.count_nonzero(np.concatenate([rough[0], rough[-1], rough[:, 0], rough[:, -1]])) > 2:
+        raise InputError(names[0], _CUT)
     plane = measure_plane(rig, right_bgr, left_bgr, rough)
     tilt = float(np.degrees(np.arccos(np.clip(plane.normal_cam1 @ rig.R_cam1_facing[:, 2],
                                               -1.0, 1.0))))
@@ -524,13 +532,10 @@ def build_in_place(
     try:
         built = build_photo_model(photo, background, ortho.camera, ortho.distance_mm,
                                   name=name, config=cfg, photo_source=names[0],
-                                  background_source=names[2] if empty_right_bgr is not None
-                                  else "the table's colour")
+                                  background_source=names[2] if empty else "the table's colour")
     except InputError as exc:
         if "border" in str(exc):
-            raise InputError(names[0], "the garment is cut by camera 1's image border (not "
-                                       "wholly in view): move the hand or the garment so "
-                                       "that all of it shows") from None
+            raise InputError(names[0], _CUT) from None
         raise
     centroid = np.asarray(built.model.meta["centroid_in_camera_mm"], dtype=np.float64)
     T_cam1_model = np.eye(4)
@@ -540,6 +545,5 @@ def build_in_place(
         "plane_normal_cam1": [float(x) for x in plane.normal_cam1],
         "plane_distance_mm": plane.distance_mm, "plane_rms_mm": plane.rms_mm,
         "plane_points": plane.points, "plane_band": plane.band,
-        "mm_per_px": ortho.mm_per_px, "empty_pair": empty_right_bgr is not None,
-        "T_cam1_model": T_cam1_model.tolist()}
+        "mm_per_px": ortho.mm_per_px, "empty_pair": empty, "T_cam1_model": T_cam1_model.tolist()}
     return InPlaceBuild(built, plane, T_cam1_model, ortho.mm_per_px, photo)
