@@ -431,8 +431,9 @@ def locate_in_features(
     gen = np.random.default_rng(rng)
     space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
     config = pyramid or PyramidConfig()
-    prepare_model(model, features, space=space, pyramid=config,
-                  scans=(None if scan is not None else coarse_scan, ScanConfig()))
+    prepare_model(model, features, space=space, pyramid=config,      # seeds: no scan
+                  scans=() if seeds is not None else (None if scan is not None
+                                                      else coarse_scan, ScanConfig()))
     attempts: list[tuple[PyramidResult, ScoreTerms]] = []
 
     @functools.cache
