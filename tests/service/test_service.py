@@ -211,12 +211,14 @@ def unwarmed(cell_data, tmp_path_factory):
 
 def test_the_token_is_required(unwarmed) -> None:
     running, token = unwarmed
-    for headers in ({}, {"Authorization": "Bearer wrong"}, {"Authorization": token}):
+    for headers in ({}, {"Authorization": "Bearer wrong"}, {"Authorization": token},
+                    {"Authorization": f"Basic {token}"}, {"Authorization": f"Bearer{token}"}):
         response = httpx.get(f"{running.url}/health", headers=headers)
         _error(response, 401, "token")
         assert response.headers["www-authenticate"] == "Bearer"
-    ok = httpx.get(f"{running.url}/health", headers={"Authorization": f"Bearer {token}"})
-    assert ok.status_code == 200 and ok.json()["status"] == "warming"
+    for scheme in ("Bearer", "bearer", "BEARER"):         # RFC 7235: any case
+        ok = httpx.get(f"{running.url}/health", headers={"Authorization": f"{scheme} {token}"})
+        assert ok.status_code == 200 and ok.json()["status"] == "warming"
 
 
 def test_a_browser_logs_in_once_with_the_token(unwarmed) -> None:

@@ -172,8 +172,10 @@ class _Guard:
         if self._expected is None:
             return True
         for key, value in scope.get("headers", []):
-            if key == b"authorization":
-                return hmac.compare_digest(value, self._expected)
+            if key == b"authorization":         # the scheme's case is free (RFC 7235)
+                scheme, _, token = value.strip().partition(b" ")
+                return scheme.lower() == b"bearer" and hmac.compare_digest(
+                    b"Bearer " + token.strip(), self._expected)
             if key == b"cookie":
                 for part in value.split(b";"):
                     name, _, token = part.strip().partition(b"=")
