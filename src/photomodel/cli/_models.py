@@ -234,35 +234,27 @@ def run_set_scale(args: argparse.Namespace) -> int:
     from photomodel._limits import read_capped
     from photomodel.errors import InputError
     from photomodel.library import ModelLibrary, check_model_name
-    from photomodel.model import resampled_model, scale_known
+    from photomodel.model import at_scale, confirmed_scale
 
     check_model_name(args.name, "NAME")
     factor, source = args.factor, f"factor {args.factor}"
     if args.from_result is not None:
         raw = read_capped(args.from_result, "locate result", 1 << 20)
         try:
-            answer = json.loads(raw)
+            factor = confirmed_scale(json.loads(raw), args.name)
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise InputError(args.from_result, f"not a locate --json answer ({exc})") from None
-        if not isinstance(answer, dict) or answer.get("model") != args.name:
-            raise InputError(args.from_result, f"is no locate answer of model {args.name!r}")
-        factor = answer.get("scale")
-        if isinstance(factor, bool) or not isinstance(factor, int | float):
-            raise InputError(args.from_result, "has no measured scale (a locate of a model "
-                                               "of unknown scale reports one)")
-        if answer.get("found") is not True:
-            raise InputError(args.from_result, "did not find the garment: its scale is not "
-                                               "confirmed")
+        except ValueError as exc:
+            raise InputError(args.from_result, str(exc)) from None
         source = f"locate result {args.from_result.name}"
     library = ModelLibrary(args.models)
     model = library.load_entry(library.entry(args.name))
-    if scale_known(model):
-        raise InputError(args.name, "has a known scale already")
     try:
-        scaled = resampled_model(model, float(factor), source=source)
+        scaled = at_scale(model, float(factor), source)
     except ValueError as exc:
-        raise InputError("--factor" if args.from_result is None else args.from_result,
-                         str(exc).removeprefix("scale: ")) from None
+        field, _, text = str(exc).partition(": ")
+        raise InputError({"name": args.name, "factor": "--factor" if args.from_result is None
+                          else args.from_result}[field], text) from None
     entry = library.add_model(scaled, replace=True)
     print(f"{args.name}: scale {float(factor):.5f} mm per nominal mm stored "
           f"({entry.size_mm[0]:.0f} x {entry.size_mm[1]:.0f} mm, {entry.n_in} points inside) "

@@ -11,8 +11,8 @@ __getattr__, __dir__, _ = lazy_loader.attach(
         "_in_place": ["InPlaceBuild", "TablePlane", "build_in_place", "measure_plane"],
         "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
         "_preview": ["render_preview"],
-        "_scale": ["MAX_SCALE", "build_unknown_scale", "resampled_model", "scale_known",
-                   "scaled_model"],
+        "_scale": ["MAX_SCALE", "at_scale", "build_unknown_scale", "confirmed_scale",
+                   "resampled_model", "scale_known", "scaled_model"],
     },
 )
 
@@ -27,10 +27,12 @@ __all__ = [
     "ModelDescriptor",
     "PhotoModel",
     "TablePlane",
+    "at_scale",
     "build_in_place",
     "build_model",
     "build_photo_model",
     "build_unknown_scale",
+    "confirmed_scale",
     "describe_model",
     "load_model",
     "measure_plane",

@@ -364,6 +364,16 @@ def _sample(mask: NDArray[np.uint8], camera: PinholeCamera, distance_mm: float,
     return points_in, points_out, uv_in, uv_out, outline_uv, to_model(outline_uv)
 
 
+def surface_photo(image: NDArray[np.uint8], border_px: int = BORDER_PX) -> NDArray[np.uint8]:
+    """A photo of ``image``'s size in the median colour of its border band (at most a quarter
+    of its sides wide): the plain surface a garment lies on, where no photo of it alone was
+    taken."""
+    b = max(1, min(border_px, image.shape[0] // 4, image.shape[1] // 4))
+    band = np.concatenate([image[:b].reshape(-1, 3), image[-b:].reshape(-1, 3),
+                           image[:, :b].reshape(-1, 3), image[:, -b:].reshape(-1, 3)])
+    return np.broadcast_to(np.median(band, axis=0).astype(np.uint8), image.shape).copy()
+
+
 def _log_opponent(image: NDArray[np.uint8]) -> NDArray[np.float32]:
     """Log-opponent colour (H, W, 3) = (lightness, red-green, yellow-blue) in float, as
     ``image/_features.py`` defines it (without its rounding)."""

@@ -45,6 +45,7 @@ from photomodel.model._build import (
     _log_opponent,
     _smooth,
     build_photo_model,
+    surface_photo,
 )
 from photomodel.model._config import BuildConfig
 
@@ -421,14 +422,6 @@ def _inscribed(seen: NDArray[np.bool_]) -> tuple[int, int, int, int]:
 
 # ----------------------------------------------------------------------------- the build
 
-def _table_photo(image: NDArray[np.uint8], border_px: int = 16) -> NDArray[np.uint8]:
-    """A photo of ``image``'s size in the median colour of its border band."""
-    band = np.concatenate([image[:border_px].reshape(-1, 3), image[-border_px:].reshape(-1, 3),
-                           image[:, :border_px].reshape(-1, 3),
-                           image[:, -border_px:].reshape(-1, 3)])
-    return np.broadcast_to(np.median(band, axis=0).astype(np.uint8), image.shape).copy()
-
-
 def _rough_garment(right: NDArray[np.uint8], empty: NDArray[np.uint8],
                    config: BuildConfig) -> NDArray[np.bool_]:
     """Camera 1's pixels unlike the empty table (step 1), cleaned to the largest part."""
@@ -509,7 +502,7 @@ def build_in_place(
     _check_views(rig, (right_bgr, left_bgr, empty_right_bgr, empty_left_bgr), names)
     empty = empty_right_bgr is not None
     rough = _rough_garment(right_bgr, empty_right_bgr if empty_right_bgr is not None
-                           else _table_photo(right_bgr), cfg)
+                           else surface_photo(right_bgr), cfg)
     if np.count_nonzero(rough) < 50:
         where = f"{names[2]} (is the garment in the empty pair too?)" if empty else \
             "the table's colour"
@@ -528,7 +521,7 @@ def build_in_place(
     ortho = orthophoto(rig.cam1, plane, size=_size(right_bgr))
     photo = ortho.resample(right_bgr)
     background = (ortho.resample(empty_right_bgr) if empty_right_bgr is not None
-                  else _table_photo(photo))
+                  else surface_photo(photo))
     try:
         built = build_photo_model(photo, background, ortho.camera, ortho.distance_mm,
                                   name=name, config=cfg, photo_source=names[0],

@@ -22,11 +22,18 @@ from numpy.typing import NDArray
 from photomodel.camera import PinholeCamera
 from photomodel.errors import NoGarmentError
 from photomodel.image import bgr_to_hsv, sample_bilinear
-from photomodel.model._build import BuildResult, _sample, _smooth, build_photo_model
+from photomodel.model._build import (
+    BuildResult,
+    _sample,
+    _smooth,
+    build_photo_model,
+    surface_photo,
+)
 from photomodel.model._config import BuildConfig
 from photomodel.model._photomodel import PhotoModel
 
-__all__ = ["MAX_SCALE", "build_unknown_scale", "resampled_model", "scale_known", "scaled_model"]
+__all__ = ["MAX_SCALE", "at_scale", "build_unknown_scale", "confirmed_scale", "resampled_model",
+           "scale_known", "scaled_model"]
 
 NOMINAL_PHOTO_MM = 600.0
 """Nominal length of the photo's longer side, mm."""
@@ -45,14 +52,6 @@ def scale_known(model: PhotoModel) -> bool:
     """Whether ``model``'s millimetres are real (every model but one of unknown scale)."""
     scale = model.meta.get("scale")
     return not (isinstance(scale, dict) and scale.get("known") is False)
-
-
-def _table_photo(image: NDArray[np.uint8], border_px: int = 16) -> NDArray[np.uint8]:
-    """A photo of ``image``'s size in the median colour of its border band."""
-    b = max(1, min(border_px, image.shape[0] // 4, image.shape[1] // 4))
-    band = np.concatenate([image[:b].reshape(-1, 3), image[-b:].reshape(-1, 3),
-                           image[:, :b].reshape(-1, 3), image[:, -b:].reshape(-1, 3)])
-    return np.broadcast_to(np.median(band, axis=0).astype(np.uint8), image.shape).copy()
 
 
 def build_unknown_scale(
@@ -93,7 +92,7 @@ def build_unknown_scale(
         if background_bgr is not None and background_bgr.shape[:2] == (h, w):
             background_bgr = cv2.resize(background_bgr, size, interpolation=cv2.INTER_AREA)
     if background_bgr is None:
-        background_bgr = _table_photo(photo_bgr)
+        background_bgr = surface_photo(photo_bgr)
         background_source = "the surface's colour"
     ph, pw = photo_bgr.shape[:2]
     mm_per_px = NOMINAL_PHOTO_MM / max(ph, pw)
@@ -197,3 +196,30 @@ def resampled_model(model: PhotoModel, factor: float, *, source: str = "") -> Ph
                       points_out_mm=points_out, outline_mm=outline,
                       photo_bgr=np.ascontiguousarray(photo), mask=mask,
                       crop_origin_px=np.zeros(2, dtype=np.int64), meta=meta)
+
+
+def confirmed_scale(answer: Any, name: str) -> float:
+    """The factor a locate answer (the ``locate --json`` object) of model ``name`` measured,
+    when it found the garment; ValueError saying why not (the answer's subject first: "is no
+    locate answer of model ...", "has no measured scale ...", "did not find ...")."""
+    if not isinstance(answer, dict) or answer.get("model") != name:
+        raise ValueError(f"is no locate answer of model {name!r}")
+    factor = answer.get("scale")
+    if isinstance(factor, bool) or not isinstance(factor, int | float):
+        raise ValueError("has no measured scale (a locate of a model of unknown scale reports "
+                         "one)")
+    if answer.get("found") is not True:
+        raise ValueError("did not find the garment: its scale is not confirmed")
+    return float(factor)
+
+
+def at_scale(model: PhotoModel, factor: float, source: str) -> PhotoModel:
+    """A model of unknown scale as ``models set-scale`` stores it: sampled anew at ``factor``
+    (:func:`resampled_model`), its scale known from ``source``. ValueError ``"name: ..."`` for
+    a model of known scale, ``"factor: ..."`` for a factor out of range."""
+    if scale_known(model):
+        raise ValueError("name: has a known scale already")
+    try:
+        return resampled_model(model, factor, source=source)
+    except ValueError as exc:
+        raise ValueError("factor: " + str(exc).removeprefix("scale: ")) from None

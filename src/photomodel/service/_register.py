@@ -108,7 +108,7 @@ def set_scale(cell: CellService, name: str, *, factor: float | None = None,
     model is sampled anew at that scale (:func:`~photomodel.model.resampled_model`) and
     replaces the library's; the answer is its ``/models`` summary plus ``scale``."""
     from photomodel.errors import InputError
-    from photomodel.model import resampled_model, scale_known
+    from photomodel.model import at_scale, confirmed_scale
     from photomodel.service._cell import NotFound, _summary
 
     if (factor is None) == (result_id is None):
@@ -122,22 +122,16 @@ def set_scale(cell: CellService, name: str, *, factor: float | None = None,
         if found is None:
             raise NotFound("result", f"no result {result_id!r} (only the last "
                                      f"{cell.results.size} are kept)")
-        answer = found.answer
-        if answer.get("model") != name or answer.get("scale") is None:
-            raise InputError("result", f"result {result_id!r} is no locate of {name!r} that "
-                                       "measured its scale")
-        if not answer.get("found"):
-            raise InputError("result", f"result {result_id!r} did not find {name!r}: its "
-                                       "scale is not confirmed")
-        factor = float(answer["scale"])
+        try:
+            factor = confirmed_scale(found.answer, name)
+        except ValueError as exc:
+            raise InputError("result", f"result {result_id!r} {exc}") from None
         source = f"locate result {result_id}"
     assert factor is not None
-    entry = cell.identifier.entries[name]
-    model = cell.library.load_entry(entry)
-    if scale_known(model):
-        raise InputError("name", f"model {name!r} has a known scale already")
+    model = cell.library.load_entry(cell.identifier.entries[name])
     try:
-        scaled = resampled_model(model, factor, source=source)
+        scaled = at_scale(model, factor, source)
     except ValueError as exc:
-        raise InputError("factor", str(exc).removeprefix("scale: ")) from None
+        field, _, text = str(exc).partition(": ")
+        raise InputError(field, f"model {name!r} {text}" if field == "name" else text) from None
     return {**_summary(cell.adopt(scaled, replace=True)), "scale": factor}
