@@ -57,6 +57,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _accuracy import pose_errors, table1
 from _meta import metadata
 
 REPO = Path(__file__).resolve().parents[1]
@@ -77,27 +78,6 @@ TARGETS = {"success": 0.99, "mean_error_mm": 1.0, "sd_ratio": 1.5, "build_s": 1.
 
 def _log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
-
-
-def pose_errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float, float, float]:
-    """x, y, z (mm) and in-plane angle (deg) of ``T_est`` less ``T_true`` (camera 1)."""
-    from photomodel.geometry import in_plane_angle_rad
-
-    d = T_est[:3, 3] - T_true[:3, 3]
-    dt = np.degrees(in_plane_angle_rad(T_est[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
-    return float(d[0]), float(d[1]), float(d[2]), float((dt + 180.0) % 360.0 - 180.0)
-
-
-def table1(rows: list[tuple[float, float, float, float]]) -> dict[str, Any]:
-    """The paper's Table 1 form: mean and sd of x, y, z (mm) and theta (deg)."""
-    if not rows:
-        return {"n": 0}
-    a = np.asarray(rows)
-    out: dict[str, Any] = {"n": len(rows)}
-    for k, name in enumerate(("x_mm", "y_mm", "z_mm", "theta_deg")):
-        out[name] = {"mean": float(a[:, k].mean()),
-                     "sd": float(a[:, k].std(ddof=1)) if len(a) > 1 else 0.0}
-    return out
 
 
 def _ok(e: tuple[float, float, float, float]) -> bool:
@@ -195,28 +175,6 @@ def run_in_place(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def _true_factor(station: Any, nominal: Any) -> tuple[float, np.ndarray]:
-    """Real mm per nominal mm, and the station model frame's pose (4, 4) of the nominal model
-    at that factor: the station model's outline (mm, through the station camera's lens)
-    against the same photo pixels at the nominal scale, least squares with a shift."""
-    from photomodel.camera import PinholeCamera
-
-    sm, nm = station.meta, nominal.meta
-    camera = PinholeCamera(np.asarray(sm["camera_K"]), np.asarray(sm["camera_dist"]))
-    c = np.asarray(sm["centroid_in_camera_mm"])
-    xy = station.outline_mm[:, :2] + c[:2]
-    uv = camera.project(np.column_stack([xy, np.full(len(xy), c[2])]))
-    shrink = nm["scale"]["photo_shrink"]
-    K = np.asarray(nm["camera_K"])
-    nominal_xy = ((uv + 0.5) * shrink - 0.5 - K[:2, 2]) / K[0, 0] * nm["distance_mm"]
-    A = np.column_stack([nominal_xy.ravel(), np.tile([1.0, 0.0], len(xy)),
-                         np.tile([0.0, 1.0], len(xy))])
-    s, tx, ty = np.linalg.lstsq(A, xy.ravel(), rcond=None)[0]
-    carry = np.eye(4)
-    carry[:2, 3] = np.array([tx, ty]) + s * np.asarray(nm["centroid_in_camera_mm"])[:2] - c[:2]
-    return float(s), carry
-
-
 def run_unknown_scale(args: argparse.Namespace) -> dict[str, Any]:
     """The scale from the first locate; then the model at that scale."""
     import photomodel as pm
@@ -230,6 +188,7 @@ def run_unknown_scale(args: argparse.Namespace) -> dict[str, Any]:
         scene_rng,
         simulate_scene,
         station_model,
+        station_scale,
     )
 
     rig = hand_stereo_rig()
@@ -242,7 +201,7 @@ def run_unknown_scale(args: argparse.Namespace) -> dict[str, Any]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             nominal = build_unknown_scale(photo, None, name=name).model
-        truth, carry = _true_factor(station, nominal)
+        truth, carry = station_scale(station, nominal)
         for k in range(args.scenes):
             test = simulate_scene(garment, rig, parse_conditions("paper"),
                                   scene_rng(args.seed, "scale-test", name, k))

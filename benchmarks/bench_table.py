@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _accuracy import pose_errors, table1
 from _meta import metadata
 
 REPO = Path(__file__).resolve().parents[1]
@@ -63,17 +64,6 @@ BINS = (("100%", 0.995, 1.01), ("75-100%", 0.75, 0.995), ("50-75%", 0.5, 0.75),
 
 def _log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
-
-
-def pose_errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float, float, float]:
-    """x, y, z (mm) and in-plane angle (deg) of ``T_est`` less ``T_true`` (camera 1)."""
-    from photomodel.geometry import in_plane_angle_rad
-
-    d = T_est[:3, 3] - T_true[:3, 3]
-    dt = np.degrees(in_plane_angle_rad(T_est[:3, :3]) - in_plane_angle_rad(T_true[:3, :3]))
-    dt = (dt + 180.0) % 360.0 - 180.0
-    return float(d[0]), float(d[1]), float(d[2]), float(dt)
-
 
 def match(found: Sequence[Any], truths: Sequence[Any]) -> tuple[dict[int, int], list[int]]:
     """Found garments matched to the truth (same model, within the pose tolerance; nearest
@@ -93,19 +83,6 @@ def match(found: Sequence[Any], truths: Sequence[Any]) -> tuple[dict[int, int], 
             out[ti] = fi
             used.add(fi)
     return out, [f.instance for f in found if f.instance not in used]
-
-
-def table1(rows: list[tuple[float, float, float, float]]) -> dict[str, Any]:
-    """The paper's Table 1 form: mean and sd of x, y, z (mm) and theta (deg)."""
-    if not rows:
-        return {"n": 0}
-    a = np.asarray(rows)
-    out: dict[str, Any] = {"n": len(rows)}
-    for k, name in enumerate(("x_mm", "y_mm", "z_mm", "theta_deg")):
-        out[name] = {"mean": float(a[:, k].mean()),
-                     "sd": float(a[:, k].std(ddof=1)) if len(a) > 1 else 0.0}
-    return out
-
 
 @functools.cache
 def library(seed: int) -> tuple[Any, ...]:

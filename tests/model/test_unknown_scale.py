@@ -1,9 +1,10 @@
 """Photo-models of unknown scale (``photomodel.model._scale``) and their first locate, which
 measures the scale (``photomodel.locate.locate_unknown_scale`` through ``Locator``).
 
-The true factor is fitted independently: the station model's outline (mm, through the station
-camera's lens) against the same photo pixels at the nominal scale, least squares with a shift
-(as ``benchmarks/bench_register.py`` does).
+The true factor is fitted independently of the locate (:func:`photomodel.sim.station_scale`:
+the station model's outline, mm through the station camera's lens, against the same photo
+pixels at the nominal scale, least squares with a shift; ``benchmarks/bench_register.py``
+uses it too).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 import photomodel as pm
-from photomodel.camera import PinholeCamera, StereoRig
+from photomodel.camera import StereoRig
 from photomodel.errors import NoGarmentError
 from photomodel.locate import LocateResult
 from photomodel.model import PhotoModel, load_model, save_model
@@ -38,6 +39,7 @@ from photomodel.sim import (
     render_model_photos,
     simulate_scene,
     station_model,
+    station_scale,
 )
 
 SCALE_TOL = 0.005
@@ -64,26 +66,6 @@ class ScaleData:
     second_truth: NDArray[np.float64]
 
 
-def _fitted_factor(station: PhotoModel, nominal: PhotoModel
-                   ) -> tuple[float, NDArray[np.float64]]:
-    """Real mm per nominal mm, and the nominal model's frame (at that factor) in the station
-    model's frame (4, 4)."""
-    sm, nm = station.meta, nominal.meta
-    camera = PinholeCamera(np.asarray(sm["camera_K"]), np.asarray(sm["camera_dist"]))
-    c = np.asarray(sm["centroid_in_camera_mm"])
-    xy = station.outline_mm[:, :2] + c[:2]
-    uv = camera.project(np.column_stack([xy, np.full(len(xy), c[2])]))
-    shrink = nm["scale"]["photo_shrink"]
-    K = np.asarray(nm["camera_K"])
-    nominal_xy = ((uv + 0.5) * shrink - 0.5 - K[:2, 2]) / K[0, 0] * nm["distance_mm"]
-    A = np.column_stack([nominal_xy.ravel(), np.tile([1.0, 0.0], len(xy)),
-                         np.tile([0.0, 1.0], len(xy))])
-    s, tx, ty = np.linalg.lstsq(A, xy.ravel(), rcond=None)[0]
-    carry = np.eye(4)
-    carry[:2, 3] = np.array([tx, ty]) + s * np.asarray(nm["centroid_in_camera_mm"])[:2] - c[:2]
-    return float(s), carry
-
-
 @pytest.fixture(scope="module")
 def data() -> ScaleData:
     photo, _ = render_model_photos(catalogue_garment("No.2"), model_station_camera(), rng=3)
@@ -91,7 +73,7 @@ def data() -> ScaleData:
         warnings.simplefilter("ignore")
         nominal = build_unknown_scale(photo, name="No.2").model
     station = station_model("No.2", 0)
-    factor, carry = _fitted_factor(station, nominal)
+    factor, carry = station_scale(station, nominal)
     rig = hand_stereo_rig()
     shots = [simulate_scene(catalogue_garment("No.2"), rig, parse_conditions("paper"), seed)
              for seed in (21, 22)]

@@ -105,7 +105,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "write_sequences",
         ],
         "_sheet": ["contact_sheet"],
-        "_station": ["station_model"],
+        "_station": ["station_model", "station_scale"],
         "_table": [
             "CLOTH_THICKNESS_MM",
             "MAX_TABLE_GARMENTS",
@@ -247,6 +247,7 @@ __all__ = [
     "simulate_sequence",
     "simulate_table",
     "station_model",
+    "station_scale",
     "stripe_fabric",
     "table_in_base",
     "table_plane",
