@@ -1,20 +1,17 @@
-"""The cell service's HTTP interface (Starlette): routes, the bearer token, bounded uploads,
-JSON errors, Prometheus metrics. The work itself is :class:`CellService`'s, run off the event
-loop in worker threads (``searches`` at once)."""
+"""The cell service's HTTP interface (Starlette): routes, bounded uploads, JSON errors,
+Prometheus metrics; who may ask is :mod:`photomodel.service._guard`'s. The work itself is
+:class:`CellService`'s, run off the event loop in worker threads (``searches`` at once)."""
 
 from __future__ import annotations
 
 import contextlib
-import hmac
 import json
 import math
 import re
 import threading
-import time
 from collections.abc import AsyncIterator, Callable, Iterator
 from importlib import resources
 from typing import Any
-from urllib.parse import parse_qs
 
 import anyio
 import anyio.to_thread
@@ -27,12 +24,13 @@ from starlette.datastructures import FormData, UploadFile
 from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 from starlette.requests import ClientDisconnect, Request
-from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
+from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.types import ASGIApp, Message, Scope
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
+from photomodel.service._guard import Guard, drain
 from photomodel.service._register import register_from_camera, register_in_place, set_scale
 from photomodel.service._source import SourceError
 from photomodel.service._track_socket import track_endpoint
@@ -42,16 +40,6 @@ __all__ = ["create_app"]
 _STATUS = {NotFound: 404, Conflict: 409, Unavailable: 503, SourceError: 503}
 _LATENCY_BUCKETS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 2.0,
                       5.0, 10.0, 30.0)
-
-
-_COOKIE = "photomodel_token"
-_LOGIN_PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8">
-<link rel="icon" href="data:,"><title>photomodel cell: token</title></head>
-<body style="font-family: system-ui, sans-serif; margin: 3em">
-<h1>photomodel cell</h1><p>This service needs its token (the one in its --token-file).</p>
-<form method="post" action="login"><input name="token" type="password" autofocus size="40">
-<button type="submit">Open</button> <span style="color: #b91c1c">{note}</span></form>
-</body></html>"""
 
 
 class _TooLarge(Exception):
@@ -76,20 +64,6 @@ class _JSON(JSONResponse):
         return json.dumps(_finite(content), allow_nan=False, separators=(",", ":")).encode()
 
 
-async def _drain(receive: Receive, cap_bytes: int) -> None:
-    """Read and drop what is left of a request body (at most ``cap_bytes``) before an early
-    answer: a client still sending when the server closes sees a broken pipe, not the
-    answer."""
-    total = 0
-    while total <= cap_bytes:
-        message = await receive()
-        if message["type"] != "http.request":
-            return
-        total += len(message.get("body", b""))
-        if not message.get("more_body", False):
-            return
-
-
 def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
     return _JSON({"error": message}, status_code=status, headers=headers)
 
@@ -107,7 +81,7 @@ def _endpoint(path: str) -> str:
     if head == "trigger" and parts[1:] in (["locate"], ["identify"]):
         return f"/trigger/{parts[1]}"
     known = {"health", "models", "locate", "identify", "results", "metrics", "stats", "static",
-             "track", "record", "camera"}
+             "track", "record", "camera", "login", "logout", "session"}
     return f"/{head}" if head in known else "other"
 
 
@@ -156,105 +130,6 @@ class _PreparedCollector(Collector):
                                   value=evicted)
 
 
-class _Guard:
-    """Outermost ASGI layer: the bearer token (401), the metrics and the latency window, and
-    a JSON 500 for anything unforeseen (the service keeps running)."""
-
-    def __init__(self, app: ASGIApp, cell: CellService, metrics: _Metrics) -> None:
-        self.app = app
-        self.cell = cell
-        self.metrics = metrics
-        token = cell.config.token
-        self._expected = None if token is None else f"Bearer {token}".encode()
-
-    def _authorised(self, scope: Scope) -> bool:
-        """The bearer header, or the cookie that ``/login`` sets for a browser."""
-        if self._expected is None:
-            return True
-        for key, value in scope.get("headers", []):
-            if key == b"authorization":         # the scheme's case is free (RFC 7235)
-                scheme, _, token = value.strip().partition(b" ")
-                return scheme.lower() == b"bearer" and hmac.compare_digest(
-                    b"Bearer " + token.strip(), self._expected)
-            if key == b"cookie":
-                for part in value.split(b";"):
-                    name, _, token = part.strip().partition(b"=")
-                    if name == _COOKIE.encode() and hmac.compare_digest(
-                            b"Bearer " + token, self._expected):
-                        return True
-        return False
-
-    async def _login(self, scope: Scope, receive: Receive, send: Send) -> None:
-        """``GET /login``: a form for the token; ``POST /login``: check it, set the cookie
-        (HttpOnly, SameSite=Strict) and go to the page."""
-        request = Request(scope, receive)
-        if request.method == "POST" and self._expected is not None:
-            body = b""
-            async for chunk in request.stream():
-                body += chunk
-                if len(body) > 4096:
-                    break
-            token = parse_qs(body.decode("utf-8", "replace")).get("token", [""])[0].strip()
-            if hmac.compare_digest(f"Bearer {token}".encode(), self._expected):
-                response: Response = RedirectResponse("./", status_code=303)
-                response.set_cookie(_COOKIE, token, httponly=True, samesite="strict")
-                await response(scope, receive, send)
-                return
-            await HTMLResponse(_LOGIN_PAGE.format(note="wrong token"), status_code=401)(
-                scope, receive, send)
-            return
-        if self._expected is None:
-            await RedirectResponse("./", status_code=303)(scope, receive, send)
-            return
-        await HTMLResponse(_LOGIN_PAGE.format(note=""))(scope, receive, send)
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] == "websocket" and not self._authorised(scope):
-            await receive()                    # the connect event, then refuse (HTTP 403)
-            await send({"type": "websocket.close", "code": 1008})
-            return
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        t0 = time.perf_counter()
-        endpoint = _endpoint(scope["path"])
-        status = 500
-        started = False
-
-        async def tracked(message: Message) -> None:
-            nonlocal status, started
-            if message["type"] == "http.response.start":
-                status, started = message["status"], True
-            await send(message)
-
-        try:
-            if scope["path"] == "/login":
-                await self._login(scope, receive, tracked)
-            elif not self._authorised(scope) and scope["path"] == "/" and \
-                    scope.get("method") == "GET":
-                await RedirectResponse("login", status_code=303)(scope, receive, tracked)
-            elif not self._authorised(scope):
-                await _drain(receive, self.cell.config.max_upload_bytes)
-                await _error(401, "missing or wrong bearer token (Authorization: Bearer ...)",
-                             {"WWW-Authenticate": "Bearer"})(scope, receive, tracked)
-            else:
-                await self.app(scope, receive, tracked)
-        except Exception:  # noqa: BLE001 - already logged by Starlette; answer, stay up
-            if not started:
-                await _error(500, "internal error (see the service's log)")(scope, receive,
-                                                                            tracked)
-        finally:
-            seconds = time.perf_counter() - t0
-            method = scope.get("method", "")
-            m = self.metrics
-            m.requests.labels(endpoint, method, str(status)).inc()
-            m.latency.labels(endpoint).observe(seconds)
-            if status >= 400:
-                m.errors.labels(endpoint, str(status)).inc()
-            if method in ("POST", "DELETE"):
-                self.cell.latencies.add(f"{method} {endpoint}", status, seconds)
-
-
 async def _body(request: Request, limit: int) -> bytes:
     """The request's body, at most ``limit`` bytes (413 beyond; the rest is read and
     dropped first)."""
@@ -267,7 +142,7 @@ async def _body(request: Request, limit: int) -> bytes:
         total += len(chunk)
         if total > limit:
             if more:
-                await _drain(request.receive, limit)
+                await drain(request.receive, limit)
             raise _TooLarge()
         chunks.append(chunk)
     return b"".join(chunks)
@@ -278,11 +153,11 @@ async def _form(request: Request, limit: int) -> FormData:
     the client still sends is read and dropped first, up to twice the bound)."""
     size = request.headers.get("content-length")
     if size is not None and size.isdigit() and int(size) > limit:
-        await _drain(request.receive, 2 * limit)
+        await drain(request.receive, 2 * limit)
         raise _TooLarge()
     ctype = request.headers.get("content-type", "")
     if not ctype.startswith("multipart/form-data"):
-        await _drain(request.receive, limit)
+        await drain(request.receive, limit)
         raise InputError("request", "expected a multipart/form-data body (files and fields)")
     body = await _body(request, limit)
     sent = False
@@ -538,4 +413,15 @@ def create_app(cell: CellService, *, warm: bool = True,
         PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,
         ClientDisconnect: on_disconnect, Exception: on_internal})
     app.state.cell = cell
-    return _Guard(app, cell, metrics)
+
+    def observe(scope: Scope, status: int, seconds: float) -> None:
+        endpoint, method = _endpoint(scope["path"]), scope.get("method", "")
+        metrics.requests.labels(endpoint, method, str(status)).inc()
+        metrics.latency.labels(endpoint).observe(seconds)
+        if status >= 400:
+            metrics.errors.labels(endpoint, str(status)).inc()
+        if method in ("POST", "DELETE"):
+            cell.latencies.add(f"{method} {endpoint}", status, seconds)
+
+    return Guard(app, tokens=cell.tokens, audit=cell.audit, max_body_bytes=limit,
+                 observe=observe)

@@ -29,6 +29,8 @@ from photomodel.library import ModelLibrary, check_model_name
 from photomodel.library._library import LibraryEntry
 from photomodel.locate import Locator, draw_overlay, draw_table_overlay, load_threshold
 from photomodel.model import PhotoModel, build_model
+from photomodel.service._audit import AuditLog, file_sha256
+from photomodel.service._auth import TokenBook, TokenFile
 from photomodel.service._camera_feed import CameraFeed
 from photomodel.service._results import Latencies, ResultRing
 from photomodel.service._ros import pose_stamped
@@ -83,7 +85,18 @@ class ServiceConfig:
     max_upload_bytes : int
         Largest request body accepted (HTTP 413 beyond).
     token : str or None
-        When set, every request needs ``Authorization: Bearer <token>``.
+        When set, every request needs ``Authorization: Bearer <token>`` (one ``admin``).
+    token_file : Path or None
+        A token file of several credentials with roles
+        (:func:`~photomodel.service._auth.read_tokens`), read again when it changes; it
+        takes the place of ``token``.
+    audit_log : Path or None
+        The audit trail (default ``audit/audit.jsonl`` in the model library).
+    host : str
+        The address the service listens on (a non-local one without ``tls`` is warned
+        about in ``/health``).
+    tls : bool
+        Whether the service is served over TLS.
     threshold : Path or None
         Threshold file (default: the library's ``threshold.json``, else the user's).
     source : str or None
@@ -117,6 +130,10 @@ class ServiceConfig:
     source: str | None = None
     max_skew_ms: float = DEFAULT_MAX_SKEW_MS
     record_dir: Path | None = None
+    token_file: Path | None = None
+    audit_log: Path | None = None
+    host: str = "127.0.0.1"
+    tls: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.searches <= 64:
@@ -232,6 +249,8 @@ class CellService:
         self.feed = CameraFeed(self)         # the camera streams' and live view's grab loop
         self.recorder = Recorder(config.record_dir or Path(config.models).parent / "recordings",
                                  config.stereo)
+        self.tokens = _tokens(config)
+        self.audit = AuditLog(config.audit_log or self.library.root / "audit" / "audit.jsonl")
         if config.source is not None:
             self.attach_source(config.source)
 
@@ -365,9 +384,12 @@ class CellService:
                             distance_mm or self.distance_mm, name=name)
         return _summary(self.adopt(model, replace=replace))
 
-    def adopt(self, model: PhotoModel, *, replace: bool = False) -> LibraryEntry:
+    def adopt(self, model: PhotoModel, *, replace: bool = False, action: str | None = None
+              ) -> LibraryEntry:
         """Add a built model to the library and prepare it (Conflict when its name is taken
-        and ``replace`` is False); its library entry."""
+        and ``replace`` is False); its library entry. The audit trail records it as
+        ``action`` (default ``register``, or ``replace`` when the name was taken), with the
+        model file's SHA-256 and the request's actor."""
         identifier = self.identifier
         name = model.name
         if name in identifier.entries and not replace:
@@ -376,6 +398,7 @@ class CellService:
         with self._writing:
             if name in identifier.entries and not replace:
                 raise _taken(name)
+            action = action or ("replace" if name in identifier.entries else "register")
             self._changes += 1
             try:
                 entry = self.library.add_model(model, replace=replace)
@@ -383,6 +406,8 @@ class CellService:
                 identifier.prepared.put(locator)
             finally:
                 self._changes += 1
+            self.audit.write(action, model=name,
+                             sha256=file_sha256(self.library.root / entry.file))
         log.info("serve: registered %s (%.0f x %.0f mm)", name, *entry.size_mm)
         return entry
 
@@ -393,6 +418,7 @@ class CellService:
             if name not in identifier.entries:
                 raise NotFound("model", f"no model named {name!r}")
             self._changes += 1
+            sha256 = file_sha256(self.library.root / identifier.entries[name].file)
             try:
                 try:
                     entry = self.library.remove(name)
@@ -404,6 +430,7 @@ class CellService:
                 identifier.reload()
             finally:
                 self._changes += 1
+            self.audit.write("delete", model=name, sha256=sha256)
         return _summary(entry)
 
     def preview_png(self, name: str) -> bytes:
@@ -673,7 +700,8 @@ class CellService:
                 "detail": detail, "searches": self.searches,
                 "uptime_s": round(time.time() - self.started_s, 1),
                 "prepared": 0 if stats is None else stats.prepared,
-                "prepared_max": self.config.prepared_models, "source": source}
+                "prepared_max": self.config.prepared_models, "source": source,
+                "tls": self.config.tls, "warning": exposure_warning(self.config)}
 
 
 def _taken(name: str) -> Conflict:
@@ -686,6 +714,26 @@ def _summary(entry: LibraryEntry) -> dict[str, Any]:
     identification screens with, about 1 kB), and the preview's URL."""
     return {"name": entry.name, **dataclasses.replace(entry, descriptor=None).to_json_dict(),
             "preview": f"models/{quote(entry.name, safe='')}/preview.png"}
+
+
+def exposure_warning(config: ServiceConfig) -> str | None:
+    """The warning of a service that listens beyond this machine without TLS, or None."""
+    from photomodel.service._server import is_loopback
+
+    if config.tls or is_loopback(config.host):
+        return None
+    return (f"listening on {config.host} without TLS: tokens and images cross the network "
+            "in clear (give --tls-cert and --tls-key; photomodel certs makes them)")
+
+
+def _tokens(config: ServiceConfig) -> Callable[[], TokenBook] | None:
+    """What gives the service's current credentials, or None (no authentication)."""
+    if config.token_file is not None:
+        return TokenFile(config.token_file).book
+    if config.token is not None:
+        book = TokenBook.single(config.token)
+        return lambda: book
+    return None
 
 
 def read_token(path: Path) -> str:

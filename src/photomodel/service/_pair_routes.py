@@ -18,8 +18,9 @@ from starlette.routing import Route
 
 from photomodel.errors import InputError
 from photomodel.image import decode_color_image
-from photomodel.service._app import _JSON, _body, _drain, _field, _file, _form, _seed, _TooLarge
+from photomodel.service._app import _JSON, _body, _field, _file, _form, _seed, _TooLarge
 from photomodel.service._cell import CellService, NotFound
+from photomodel.service._guard import drain
 from photomodel.service._pixels import npy_view, raw_layout, raw_pair, raw_view
 
 __all__ = ["pair_routes"]
@@ -70,7 +71,7 @@ async def _raw_body(request: Request, limit: int) -> tuple[FormData, Callable[[]
     """The query's fields and the body's two views (right then left)."""
     size = request.headers.get("content-length")
     if size is not None and size.isdigit() and int(size) > limit:
-        await _drain(request.receive, 2 * limit)
+        await drain(request.receive, 2 * limit)
         raise _TooLarge()
     query = FormData(list(request.query_params.multi_items()))
     body = await _body(request, limit)

@@ -134,4 +134,4 @@ def set_scale(cell: CellService, name: str, *, factor: float | None = None,
     except ValueError as exc:
         field, _, text = str(exc).partition(": ")
         raise InputError(field, f"model {name!r} {text}" if field == "name" else text) from None
-    return {**_summary(cell.adopt(scaled, replace=True)), "scale": factor}
+    return {**_summary(cell.adopt(scaled, replace=True, action="set-scale")), "scale": factor}

@@ -15,6 +15,8 @@ searches one pair at a time.
 from __future__ import annotations
 
 import asyncio
+import contextvars
+import functools
 import queue
 import threading
 from collections.abc import Callable
@@ -86,8 +88,10 @@ class SearchThreads:
         self._extra = _ExtraThreads(EXTRA_IDLE_S)
 
     def submit(self, call: Callable[[], T]) -> Future[T]:
-        """Start ``call()`` on the primary thread when it is free, else on an extra thread;
-        its future."""
+        """Start ``call()`` on the primary thread when it is free, else on an extra thread,
+        in a copy of the caller's context (the request's actor, for the audit); its
+        future."""
+        call = functools.partial(contextvars.copy_context().run, call)
         with self._lock:
             if self._primary_busy:
                 return self._extra.submit(call)

@@ -78,7 +78,10 @@ def trigger_routes(cell: CellService, work: Work) -> list[Route]:
 
     async def record(request: Request) -> Response:
         frames = _frames(await _fields(request))
-        return _JSON(await anyio.to_thread.run_sync(cell.record, frames), status_code=201)
+        answer = await anyio.to_thread.run_sync(cell.record, frames)
+        cell.audit.write("record", status=201,
+                         detail=f"{answer['frames']} frames to {answer['path']}")
+        return _JSON(answer, status_code=201)
 
     async def latest_jpeg(request: Request) -> Response:
         model = request.query_params.get("model") or None

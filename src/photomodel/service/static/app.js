@@ -11,6 +11,22 @@ let liveSocket = null;         // the /track?source=camera stream of the chosen 
 let liveModel = "";
 let liveTimer = null;
 const LIVE_PERIOD_MS = 250;    // about four pictures a second
+let session = { role: "admin", csrf: null };   // GET /session: who this is
+
+async function loadSession() {
+  try {
+    session = await getJSON("session");
+  } catch (error) { return; }
+  $("who").textContent = session.user ? `${session.user} (${session.role})` : "";
+  $("logout").hidden = !session.csrf;
+  $("register-section").hidden = session.role !== "admin";
+}
+
+function changing(method, body) {
+  // a browser session's changes carry its CSRF token (the service refuses them without)
+  const headers = session.csrf ? { "X-CSRF-Token": session.csrf } : {};
+  return { method, body, headers };
+}
 
 async function getJSON(url) {
   const response = await fetch(url, { cache: "no-store" });
@@ -42,6 +58,8 @@ async function refreshHealth() {
     $("detail").textContent = `${health.detail} · ${health.models} models ` +
       `(${health.prepared} of at most ${health.prepared_max} prepared) · ` +
       `${health.searches} searches at once · photomodel ${health.version}`;
+    $("warning").hidden = !health.warning;
+    $("warning").textContent = health.warning ? `Warning: ${health.warning}` : "";
   } catch (error) {
     serviceStatus = "unreachable";
     $("status").textContent = "unreachable";
@@ -68,6 +86,7 @@ async function refreshLibrary() {
   const cards = models.map((m) => {
     const remove = el("button", { class: "danger", type: "button" }, "Delete");
     remove.addEventListener("click", () => deleteModel(m.name));
+    remove.hidden = session.role !== "admin";
     return el("div", { class: "card", "data-model": m.name },
       el("img", { src: `${m.preview}?t=${encodeURIComponent(m.added_utc)}`, alt: m.name,
                   loading: "lazy" }),
@@ -88,7 +107,7 @@ function swatch([colour, share]) {
 
 async function deleteModel(name) {
   if (!confirm(`Delete model ${name} from the library?`)) return;
-  const response = await fetch(`models/${encodeURIComponent(name)}`, { method: "DELETE" });
+  const response = await fetch(`models/${encodeURIComponent(name)}`, changing("DELETE"));
   if (!response.ok) alert((await response.json()).error);
   await refreshLibrary();
 }
@@ -214,7 +233,7 @@ $("register").addEventListener("submit", async (event) => {
   try {
     const data = new FormData(form);
     if (!data.get("distance_mm")) data.delete("distance_mm");
-    const response = await fetch("models", { method: "POST", body: data });
+    const response = await fetch("models", changing("POST", data));
     const body = await response.json();
     if (!response.ok) throw new Error(body.error || response.statusText);
     status.textContent = `registered ${body.name}: ${fmt(body.size_mm[0], 0)} x ` +
@@ -236,5 +255,5 @@ async function refresh() {
   }
 }
 
-refresh();
+loadSession().then(refresh);
 setInterval(refresh, 2000);
