@@ -66,9 +66,10 @@ class AuditLog:
     """The audit trail at ``path`` (JSON lines), rotated to ``path.1`` ... ``path.<keep>``
     when it would grow past ``max_bytes``.
 
-    Each event is one ``write`` of one line, flushed to disk before :meth:`write` returns:
-    a crash never loses a line already written, and a line cut short by a power cut is
-    dropped at the next write. Processes appending to one file take turns (``fcntl``).
+    Each event is one ``write`` of one line, flushed to disk before :meth:`write` returns
+    (but refusals: see :meth:`write`): a crash never loses a line already written, and a
+    line cut short by a power cut is dropped at the next write. Processes appending to one
+    file take turns (``fcntl``).
     """
 
     def __init__(self, path: Path, max_bytes: int = 10 << 20, keep: int = 5) -> None:
@@ -82,9 +83,12 @@ class AuditLog:
 
     def write(self, action: str, *, actor: Actor | None = None, model: str | None = None,
               sha256: str | None = None, status: int | str | None = None,
-              detail: str | None = None) -> None:
+              detail: str | None = None, fsync: bool = True) -> None:
         """Append one event; ``actor`` defaults to :data:`ACTOR`'s. An event that cannot be
-        written is logged as an error (the request it records is not failed by it)."""
+        written is logged as an error (the request it records is not failed by it).
+        ``fsync=False`` (refused requests, which a client can send by the thousand) still
+        writes the line at once, safe from a crash of the process, but not from a power
+        cut."""
         actor = actor or ACTOR.get() or Actor(None)
         event = {"time": dt.datetime.now(dt.UTC).isoformat(timespec="milliseconds"),
                  "client": actor.client, "role": actor.role, "user": actor.user,
@@ -94,7 +98,7 @@ class AuditLog:
         try:
             with self._lock, locked(self._lockfile):
                 self._rotate(len(line) + 1)
-                append_lines(self.path, [line])
+                append_lines(self.path, [line], fsync=fsync)
         except OSError as exc:
             log.error("audit: cannot write %s: %s", self.path, exc.strerror or exc)
 

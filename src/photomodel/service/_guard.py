@@ -152,8 +152,9 @@ class Guard:
 
     def _record(self, action: str, actor: Actor, status: int | None = None,
                 detail: str | None = None) -> None:
-        if self.audit is not None:
-            self.audit.write(action, actor=actor, status=status, detail=detail)
+        if self.audit is not None:     # refusals come by the thousand: not each to disk
+            self.audit.write(action, actor=actor, status=status, detail=detail,
+                             fsync=action != "refused")
 
     def _refusal(self, scope: Scope, headers: dict[bytes, bytes], face: str
                  ) -> _Refusal | Actor:
