@@ -250,3 +250,76 @@ def test_live_view_shows_the_camera_with_the_tracked_model(page: Any, service: A
     finally:
         link, cell.source = cell.source, None
         link.close()
+
+
+_ADMIN, _CONTROLLER = "page-admin-token-0123456", "page-controller-token-0123"
+
+
+@pytest.fixture(scope="module")
+def guarded(cell_data: Any, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
+    """A warmed service with an admin and a controller token (a browser logs in)."""
+    from photomodel.service import CellService, ServiceConfig, ServiceThread
+
+    root = tmp_path_factory.mktemp("guarded")
+    library = root / "library"
+    shutil.copytree(cell_data.library, library)
+    tokens = root / "tokens.txt"
+    tokens.write_text(f"admin {_ADMIN} alice\ncontroller {_CONTROLLER} plc-7\n")
+    cell = CellService(ServiceConfig(stereo=cell_data.stereo, models=library,
+                                     camera=cell_data.camera, token_file=tokens))
+    with ServiceThread(cell) as running:
+        running.wait_ready()
+        yield running
+    cell.close()
+
+
+def _log_in(browser: Any, url: str, token: str) -> tuple[Any, Any]:
+    context = browser.new_context(viewport={"width": 1280, "height": 900})
+    opened = context.new_page()
+    opened.goto(url + "/")
+    assert opened.url.endswith("/login")
+    opened.locator('input[name="token"]').fill(token)
+    opened.locator('button[type="submit"]').click()
+    return context, opened
+
+
+def test_an_admin_logs_in_changes_the_library_and_logs_out(browser: Any, guarded: Any,
+                                                           cell_data: Any) -> None:
+    from playwright.sync_api import expect
+
+    context, page = _log_in(browser, guarded.url, _ADMIN)
+    try:
+        expect(page.locator("#who")).to_have_text("alice (admin)")
+        expect(page.locator("#register-section")).to_be_visible()
+        photo, background = cell_data.photos("No.5")
+        form = page.locator("#register")
+        form.locator('input[name="name"]').fill("No.5")
+        form.locator('input[name="photo"]').set_input_files(photo)
+        form.locator('input[name="background"]').set_input_files(background)
+        form.locator('button[type="submit"]').click()        # carries the CSRF token
+        expect(page.locator("#register-status")).to_contain_text(
+            "registered No.5", timeout=_REGISTER_TIMEOUT_MS)
+        page.on("dialog", lambda dialog: dialog.accept())
+        page.locator('.card[data-model="No.5"] button.danger').click()
+        expect(page.locator('.card[data-model="No.5"]')).to_have_count(0,
+                                                                        timeout=_POLL_TIMEOUT_MS)
+        page.locator("#logout").click()
+        expect(page).to_have_url(re.compile(r"/login$"))
+        assert page.context.request.get(guarded.url + "/health").status == 401
+    finally:
+        context.close()
+
+
+def test_a_controller_sees_no_library_changes(browser: Any, guarded: Any) -> None:
+    from playwright.sync_api import expect
+
+    context, page = _log_in(browser, guarded.url, _CONTROLLER)
+    try:
+        expect(page.locator("#who")).to_have_text("plc-7 (controller)")
+        expect(page.locator('.card[data-model="No.3"]')).to_be_visible()
+        expect(page.locator("#register-section")).to_be_hidden()
+        expect(page.locator('.card[data-model="No.3"] button.danger')).to_be_hidden()
+        _SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(_SCREENSHOT.with_name("operator_page_controller.png")))
+    finally:
+        context.close()
