@@ -47,7 +47,7 @@ TIMEOUT_S = 300.0
 MAX_LINE_CHARS = 300
 
 GROUPS = ("Images", "Calibrations", "Calibrating", "Model files", "Model library", "Registering",
-          "Tracking", "Camera sources", "Options")
+          "Tracking", "Camera sources", "Security", "Options")
 
 # The valid files every case starts from (written by `setup`); a case replaces one of them.
 VALID = {
@@ -198,6 +198,36 @@ def _register_cases() -> list[Case]:
             "photo.bmp"),
         run("unknown scale with a camera calibration", "--scale", "unknown", "--photo",
             "photo.bmp", "--camera", "camera.yaml"),
+    ]
+
+
+def _security_cases() -> list[Case]:
+    """``serve`` refused at start for its token file or TLS files (nothing loaded)."""
+    def two_pkis(work: Path) -> None:
+        from photomodel.service import make_certs
+
+        for name in ("pki_a", "pki_b"):
+            make_certs(work / name, ["cell7"])
+
+    return [
+        _case("Security", "a token file with an unknown role", "serve", "--token-file",
+              "tokens_role.txt", prepare=_writes("tokens_role.txt", lambda w: b"admin a-token-"
+                                                 b"of-20-chars-x alice\noperator b-token-of-20-"
+                                                 b"chars-y bob\n")),
+        _case("Security", "a token of 8 characters", "serve", "--token-file",
+              "tokens_short.txt", prepare=_writes("tokens_short.txt",
+                                                  lambda w: b"controller 12345678\n")),
+        _case("Security", "one token on two lines", "serve", "--token-file", "tokens_twice.txt",
+              prepare=_writes("tokens_twice.txt", lambda w: b"admin same-token-0123456789\n"
+                                                            b"controller same-token-0123456789"
+                                                            b"\n")),
+        _case("Security", "`--tls-cert` without `--tls-key`", "serve", "--tls-cert",
+              "alone.pem", prepare=_writes("alone.pem", lambda w: b"not a certificate\n")),
+        _case("Security", "a certificate that is not PEM", "serve", "--tls-cert", "junk.pem",
+              "--tls-key", "junk.key", prepare=lambda w: [
+                  (w / n).write_bytes(b"junk\n") for n in ("junk.pem", "junk.key")] and None),
+        _case("Security", "a key that is not the certificate's", "serve", "--tls-cert",
+              "pki_a/server.pem", "--tls-key", "pki_b/server.key", prepare=two_pkis),
     ]
 
 
@@ -878,6 +908,7 @@ def cases() -> list[Case]:
         _case("Options", "sampling step of 1 m", "build", "--step-mm", "1000",
               verify=_absent("out/options-sampling-step-of-1-m.npz")),
         *_register_cases(),
+        *_security_cases(),
         _case("Options", "unknown option", "locate", "--bogus"),
         _case("Options", "`simulate --force` onto a file", "simulate", "--out", "notes.txt", *sim,
               "--force", prepare=keep_prepare, verify=keep_verify),
@@ -900,6 +931,19 @@ def cases() -> list[Case]:
               "--out", "run", *exp, prepare=_locked_run,
               verify=lambda w: None if (w / "run" / "records.csv").read_text() == "kept\n"
               else "run/records.csv was changed"),
+        _case("Options", "`certs` for a host name with a space", "certs", "--out", "pki_bad",
+              "--host", "cell 7", verify=_absent("pki_bad")),
+        _case("Options", "`certs` over certificates already there, without `--force`", "certs",
+              "--out", "pki_old", "--host", "cell7",
+              prepare=_writes("pki_old/server.key", lambda w: b"the cell's key\n"),
+              verify=lambda w: None if [p.name for p in (w / "pki_old").iterdir()]
+              == ["server.key"] and (w / "pki_old" / "server.key").read_bytes()
+              == b"the cell's key\n" else "pki_old was changed"),
+        _case("Options", "`audit` of a library without an audit trail", "audit", "--models",
+              "lib"),
+        _case("Options", "`audit` of a trail with a line that is not JSON", "audit", "--log",
+              "trail.jsonl", prepare=_writes("trail.jsonl", lambda w: b'{"action":"login"}\n'
+                                             b"login by alice\n")),
     ]
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -15,7 +16,7 @@ __all__ = ["append_lines", "locked", "write_atomic"]
 def write_atomic(path: str | os.PathLike[str], data: bytes, *, mode: int = 0o644,
                  fsync: bool = True) -> None:
     """Replace ``path`` with ``data`` at once: a temporary file beside it
-    (``.<name>.tmp-<pid>``), flushed to disk, renamed over it; the temporary file is removed
+    (``.<name>.tmp-<pid>-<thread>``), flushed to disk, renamed over it; the temporary file is removed
     when anything fails, and ``path`` is then as it was.
 
     Parameters
@@ -28,7 +29,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes, *, mode: int = 0o644
         Flush the file to disk before the rename.
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{threading.get_ident()}")
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
         try:

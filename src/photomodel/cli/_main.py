@@ -16,9 +16,11 @@ from typing import NoReturn
 
 from photomodel import __version__
 from photomodel.cli import (
+    _audit,
     _build,
     _calibrate,
     _cell,
+    _certs,
     _demo,
     _experiment,
     _handeye,
@@ -68,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     _cell.add_parser(sub)
     _serve.add_parser(sub)
     _warmup.add_parser(sub)
+    _certs.add_parser(sub)
+    _audit.add_parser(sub)
     return parser
 
 

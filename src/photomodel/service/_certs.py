@@ -83,8 +83,9 @@ def make_certs(out: Path, hosts: list[str], *, days: int = 825, ca_days: int = 3
     from cryptography.hazmat.primitives.asymmetric import rsa
     from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
-    if not 1 <= days <= 36500 or not 1 <= ca_days <= 36500:
-        raise InputError("--days", "expected 1 to 36500 days")
+    for option, value in (("--days", days), ("--ca-days", ca_days)):
+        if not 1 <= value <= 36500:
+            raise InputError(option, f"expected 1 to 36500 days, got {value}")
     hosts = [_check_host(h) for h in hosts]
     if not hosts:
         raise InputError("--host", "name at least one host the service is reached by")

@@ -43,9 +43,16 @@ class TlsFiles:
     def check(self) -> None:
         """InputError naming the option when the files cannot serve TLS (unreadable, not
         PEM, a key that does not match the certificate)."""
-        for option, path in (("--tls-cert", self.cert), ("--tls-key", self.key)):
+        from photomodel._limits import read_capped
+
+        for option, path, marker in (("--tls-cert", self.cert, b"CERTIFICATE-----"),
+                                     ("--tls-key", self.key, b"PRIVATE KEY-----")):
             if not Path(path).is_file():
                 raise InputError(option, f"{path}: no such file")
+            if b"-----BEGIN " + marker not in read_capped(path, option, 1 << 20):
+                raise InputError(option, f"{path}: not a PEM file with a "
+                                         f"{marker[:-5].decode().lower()} (-----BEGIN "
+                                         f"{marker.decode()})")
         try:
             ssl.create_default_context(ssl.Purpose.CLIENT_AUTH).load_cert_chain(
                 self.cert, self.key)
