@@ -16,8 +16,8 @@ __all__ = ["append_lines", "locked", "write_atomic"]
 def write_atomic(path: str | os.PathLike[str], data: bytes, *, mode: int = 0o644,
                  fsync: bool = True) -> None:
     """Replace ``path`` with ``data`` at once: a temporary file beside it
-    (``.<name>.tmp-<pid>-<thread>``), flushed to disk, renamed over it; the temporary file is removed
-    when anything fails, and ``path`` is then as it was.
+    (``.<name>.tmp-<pid>-<thread>``), flushed to disk, renamed over it; the temporary file is
+    removed when anything fails, and ``path`` is then as it was.
 
     Parameters
     ----------

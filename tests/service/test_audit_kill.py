@@ -10,7 +10,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
@@ -19,7 +18,6 @@ from photomodel.service._audit import read_audit
 
 _WORKER = """
 import sys
-from pathlib import Path
 from photomodel.service import CellService, ServiceConfig
 stereo, camera, library, photo, background = sys.argv[1:6]
 cell = CellService(ServiceConfig(stereo=Path(stereo), models=Path(library),
