@@ -2,6 +2,9 @@
 
 usage: python locate_client.py URL MODEL RIGHT LEFT [SEED] [--raw]   (token: $PHOTOMODEL_TOKEN)
 
+An https:// URL is checked against the system's CAs, or the CA file in $PHOTOMODEL_CA (the
+ca.pem that ``photomodel certs`` writes).
+
 --raw sends the two views as raw BGR pixels (one application/octet-stream body, no image
 encoding), as a client holding frames in memory would; it reads the files with OpenCV here.
 """
@@ -11,6 +14,7 @@ from __future__ import annotations
 import http.client
 import json
 import os
+import ssl
 import sys
 import uuid
 from urllib.parse import urlencode, urlsplit
@@ -44,8 +48,12 @@ def _post(url: str, route: str, body: bytes, content_type: str) -> dict:
         headers["Authorization"] = f"Bearer {token}"
     u = urlsplit(url)
     https = u.scheme == "https"
-    connection = (http.client.HTTPSConnection if https else http.client.HTTPConnection)(
-        u.netloc, timeout=300)
+    if https:
+        context = ssl.create_default_context(cafile=os.environ.get("PHOTOMODEL_CA") or None)
+        connection: http.client.HTTPConnection = http.client.HTTPSConnection(
+            u.netloc, timeout=300, context=context)
+    else:
+        connection = http.client.HTTPConnection(u.netloc, timeout=300)
     try:
         connection.request("POST", u.path.rstrip("/") + route, body, headers)
         response = connection.getresponse()

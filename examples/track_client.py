@@ -3,6 +3,9 @@ per frame (needs the `websockets` package, which the service installs).
 
 usage: python track_client.py [--credit] URL MODEL FRAMES_DIR [FPS]   (token: $PHOTOMODEL_TOKEN)
 
+An https:// URL streams over wss://, checked against the system's CAs or the CA file in
+$PHOTOMODEL_CA.
+
 FRAMES_DIR holds one folder per frame with right.png and left.png (``photomodel simulate
 --sequences``, or ``POST /record``); frames are sent at FPS (default 30) with their times, as a
 camera would, without waiting for the answers: when the service is slower, it drops frames
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import ssl
 import struct
 import sys
 import threading
@@ -47,7 +51,9 @@ def stream(url: str, model: str, frames: list[Path], fps: float,
     # compression=None: PNG frames do not deflate, and deflating 0.9 MB a frame takes the
     # client about 20 ms, more than a 60 fps frame's time
     query = f"model={model}" + ("&credit=1" if credit else "")
-    with connect(f"{ws_url}/track?{query}", additional_headers=headers,
+    context = (ssl.create_default_context(cafile=os.environ.get("PHOTOMODEL_CA") or None)
+               if ws_url.startswith("wss://") else None)
+    with connect(f"{ws_url}/track?{query}", additional_headers=headers, ssl=context,
                  max_size=2**25, compression=None) as ws:
         def read() -> None:
             for text in ws:

@@ -10,6 +10,7 @@ import shutil
 import ssl
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from types import SimpleNamespace
 
 import httpx
@@ -252,3 +253,46 @@ def test_a_public_bind_without_tls_is_warned_about(cell_data, tmp_path) -> None:
     cell.close()
     assert CellService(ServiceConfig(stereo=cell_data.stereo, models=tmp_path / "lib2",
                                      host="0.0.0.0", tls=True)).health()["warning"] is None
+
+
+def test_the_example_client_locates_over_https_with_the_ca(secure, certs, cell_data) -> None:
+    import os
+    import subprocess
+    import sys
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "locate_client.py"
+    scene = cell_data.scene_of("No.3")
+    env = os.environ | {"PHOTOMODEL_TOKEN": CONTROLLER, "PHOTOMODEL_CA": str(certs.ca_cert)}
+    done = subprocess.run([sys.executable, str(example), secure.url, "No.3",
+                           str(scene / "right.png"), str(scene / "left.png"), "1"],
+                          env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+    assert done.returncode == 0 and done.stdout.startswith("found=True"), done.stderr
+    env.pop("PHOTOMODEL_CA")                       # the system's CAs do not know ours
+    refused = subprocess.run([sys.executable, str(example), secure.url, "No.3",
+                              str(scene / "right.png"), str(scene / "left.png")],
+                             env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+    assert refused.returncode != 0 and "CERTIFICATE_VERIFY_FAILED" in refused.stderr
+
+
+def test_serve_warns_at_start_of_a_public_bind_without_tls(cell_data, tmp_path) -> None:
+    import socket
+    import subprocess
+    import sys
+
+    tokens = tmp_path / "tokens.txt"
+    tokens.write_text(f"controller {CONTROLLER}\n")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    serve = subprocess.Popen([sys.executable, "-m", "photomodel", "serve", "--stereo",
+                              str(cell_data.stereo), "--models", str(tmp_path / "lib"),
+                              "--host", "0.0.0.0", "--port", str(port), "--token-file",
+                              str(tokens)], stderr=subprocess.PIPE, text=True)
+    try:
+        assert serve.stderr is not None
+        lines = [serve.stderr.readline() for _ in range(3)]
+    finally:
+        serve.terminate()
+        serve.wait(timeout=30)
+    warnings = [line for line in lines if "warning" in line]
+    assert len(warnings) == 1 and "without TLS" in warnings[0] and "--tls-cert" in warnings[0]
