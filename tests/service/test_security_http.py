@@ -296,3 +296,14 @@ def test_serve_warns_at_start_of_a_public_bind_without_tls(cell_data, tmp_path) 
         serve.wait(timeout=30)
     warnings = [line for line in lines if "warning" in line]
     assert len(warnings) == 1 and "without TLS" in warnings[0] and "--tls-cert" in warnings[0]
+
+
+def test_the_generated_certificates_pass_serves_check(certs, tmp_path) -> None:
+    from photomodel.errors import InputError
+
+    TlsFiles(certs.server_cert, certs.server_key).check()
+    other = make_certs(tmp_path / "other", ["cell-7.plant"])
+    with pytest.raises(InputError, match="cannot serve TLS"):
+        TlsFiles(certs.server_cert, other.server_key).check()
+    with pytest.raises(InputError, match="--tls-key: .*not a PEM file"):
+        TlsFiles(certs.server_cert, certs.server_cert).check()

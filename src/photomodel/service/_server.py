@@ -49,7 +49,8 @@ class TlsFiles:
                                      ("--tls-key", self.key, b"PRIVATE KEY-----")):
             if not Path(path).is_file():
                 raise InputError(option, f"{path}: no such file")
-            if b"-----BEGIN " + marker not in read_capped(path, option, 1 << 20):
+            text = read_capped(path, option, 1 << 20)
+            if b"-----BEGIN " not in text or marker not in text:
                 raise InputError(option, f"{path}: not a PEM file with a "
                                          f"{marker[:-5].decode().lower()} (-----BEGIN "
                                          f"{marker.decode()})")
