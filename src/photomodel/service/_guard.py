@@ -6,6 +6,7 @@ for anything unforeseen (the service keeps running)."""
 from __future__ import annotations
 
 import hmac
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -134,6 +135,7 @@ class Guard:
         self.observe = observe
         self.sessions = sessions or Sessions()
         self.throttle = throttle or Throttle()
+        self._told: dict[str, tuple[float, int]] = {}   # 429s logged: (when, left out since)
 
     # -- who is asking ------------------------------------------------------------------
     def _who(self, scope: Scope, headers: dict[bytes, bytes], book: TokenBook) -> _Who:
@@ -152,9 +154,31 @@ class Guard:
 
     def _record(self, action: str, actor: Actor, status: int | None = None,
                 detail: str | None = None) -> None:
-        if self.audit is not None:     # refusals come by the thousand: not each to disk
-            self.audit.write(action, actor=actor, status=status, detail=detail,
-                             fsync=action != "refused")
+        if self.audit is None:
+            return
+        if status == 429:              # a flood must not rotate the real events away
+            detail = self._quieted(actor.client or "unknown", detail)
+            if detail is None:
+                return
+        # refusals come by the thousand: written at once, not each forced to disk
+        self.audit.write(action, actor=actor, status=status, detail=detail,
+                         fsync=action != "refused")
+
+    def _quieted(self, client: str, detail: str | None) -> str | None:
+        """The detail of a 429 to log for ``client`` (its first in a throttle window, with
+        the number left out since the last logged), or None (counted, not logged)."""
+        now = time.monotonic()
+        last_s, untold = self._told.get(client, (-math.inf, 0))
+        if now - last_s < self.throttle.window_s:
+            self._told[client] = (last_s, untold + 1)
+            return None
+        self._told[client] = (now, 0)
+        if len(self._told) > 10_000:
+            self._told = {c: v for c, v in self._told.items()
+                          if now - v[0] < self.throttle.window_s}
+        more = f" ({untold} more 429s since the last such line)" if untold else ""
+        return f"{detail}{more}; further 429s to {client} within {self.throttle.window_s:g} s " \
+               "are counted, not logged"
 
     def _refusal(self, scope: Scope, headers: dict[bytes, bytes], face: str
                  ) -> _Refusal | Actor:
