@@ -1,7 +1,10 @@
 """Locate a garment through the cell service's OPC UA face, as a PLC would (needs asyncua).
 
 usage: python opcua_client.py [--endpoint opc.tcp://127.0.0.1:4840/photomodel/] [--model No.3]
-(a service started with --token-file: the token in $PHOTOMODEL_TOKEN, user 'photomodel')
+                              [--certs DIR] [--user LABEL]
+(a service started with --token-file: the token in $PHOTOMODEL_TOKEN, user LABEL, default
+'photomodel'; one started with --tls-cert: --certs DIR, the folder `photomodel certs` wrote,
+for Basic256Sha256 SignAndEncrypt with DIR/client.pem and DIR/client.key)
 
 It calls PhotomodelVision.Locate(model), then reads the result variables and the state in
 one Read and prints them; a Bad answer is one line on stderr (the status and the service's
@@ -23,13 +26,23 @@ VARIABLES = ["Found", "Model", "PositionMm", "QuatWxyz", "ThetaDeg", "Score", "T
              "ResultId", "State", "StateNumber", "ErrorText"]
 
 
-async def locate(endpoint: str, model: str, timeout_s: float = 30.0) -> dict:
+async def locate(endpoint: str, model: str, timeout_s: float = 30.0, certs: str | None = None,
+                 user: str = "photomodel") -> dict:
     """Call Locate(model) and read the result variables -> {name: value} plus "outputs";
     ua.UaStatusCodeError (with the service's text as ``text``) on a Bad answer."""
     client = Client(endpoint, timeout=timeout_s)     # a search takes up to seconds
     if token := os.environ.get("PHOTOMODEL_TOKEN"):
-        client.set_user("photomodel")
+        client.set_user(user)
         client.set_password(token)
+    if certs is not None:
+        from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+        from asyncua.crypto.uacrypto import CertProperties
+
+        client.application_uri = "urn:photomodel:client"    # the URI client.pem names
+        await client.set_security(                 # client.key is PEM: asyncua guesses DER
+            SecurityPolicyBasic256Sha256, f"{certs}/client.pem",
+            CertProperties(f"{certs}/client.key", extension="pem"),
+            server_certificate=f"{certs}/server.pem", mode=ua.MessageSecurityMode.SignAndEncrypt)
     async with client:
         ns = await client.get_namespace_index(NAMESPACE)
 
@@ -51,16 +64,21 @@ def main() -> int:
     parser.add_argument("--endpoint", default="opc.tcp://127.0.0.1:4840/photomodel/")
     parser.add_argument("--model", default="No.3")
     parser.add_argument("--timeout-s", type=float, default=30.0)
+    parser.add_argument("--certs", default=None, help="folder of photomodel certs' files")
+    parser.add_argument("--user", default="photomodel", help="the token's label")
     args = parser.parse_args()
     logging.getLogger("asyncua").setLevel(logging.ERROR)   # its notes on session timeouts
     try:
-        r = asyncio.run(locate(args.endpoint, args.model, args.timeout_s))
+        r = asyncio.run(locate(args.endpoint, args.model, args.timeout_s, args.certs, args.user))
     except ua.UaStatusCodeError as err:
         name = ua.status_codes.get_name_and_doc(err.code)[0]
         print(f"{name}: {getattr(err, 'text', '')}", file=sys.stderr)
         return 1
     except (TimeoutError, OSError) as err:
         print(f"cannot reach {args.endpoint}: {err or type(err).__name__}", file=sys.stderr)
+        return 1
+    except ua.UaError as err:          # e.g. a secure-only service asked without --certs
+        print(f"{args.endpoint}: {err}", file=sys.stderr)
         return 1
     found, result_id = r["outputs"]
     x, y, z = r["PositionMm"]

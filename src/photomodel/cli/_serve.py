@@ -25,10 +25,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera", type=Path, default=None,
                    help="model station calibration (needed to register garments)")
     p.add_argument("--host", default="127.0.0.1",
-                   help="address to bind (default 127.0.0.1; any other needs --token-file)")
+                   help="address to bind (default 127.0.0.1; any other needs --token-file, "
+                        "and without --tls-cert a warning)")
     p.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
     p.add_argument("--token-file", type=Path, default=None,
-                   help="file holding a bearer token every request must carry")
+                   help="bearer tokens, one per line 'ROLE TOKEN [LABEL]' (ROLE controller "
+                        "or admin; a bare TOKEN is an admin); every request must carry one; "
+                        "read again when it changes")
+    p.add_argument("--tls-cert", type=Path, default=None,
+                   help="serve HTTPS and WSS with this certificate chain (PEM; photomodel "
+                        "certs makes one); the OPC UA face then signs and encrypts with it")
+    p.add_argument("--tls-key", type=Path, default=None,
+                   help="the certificate's private key (PEM)")
+    p.add_argument("--tls-ca", type=Path, default=None,
+                   help="CA certificate whose client certificates the OPC UA face trusts "
+                        "(default: ca.pem beside --tls-cert when there is one)")
+    p.add_argument("--audit-log", type=Path, default=None,
+                   help="the audit trail, JSON lines (default: audit/audit.jsonl in "
+                        "--models); photomodel audit prints it")
     p.add_argument("--searches", type=int, default=2,
                    help="searches run at once (default 2; more wait their turn)")
     p.add_argument("--max-upload-mb", type=int, default=32,
@@ -81,16 +95,21 @@ def run(args: argparse.Namespace) -> int:
         from photomodel.service._source import parse_source_spec
 
         parse_source_spec(args.source)     # a bad spec before anything is loaded
-    from photomodel.service._cell import CellService, ServiceConfig, read_token
+    from photomodel.service._auth import read_tokens
+    from photomodel.service._cell import CellService, ServiceConfig, exposure_warning
     from photomodel.service._server import is_loopback, serve
 
-    token = read_token(args.token_file) if args.token_file is not None else None
-    if token is None and not is_loopback(args.host):
+    if args.token_file is not None:
+        read_tokens(args.token_file)                  # a bad file before anything is loaded
+    elif not is_loopback(args.host):
         raise InputError("--host", f"binding to {args.host} (not this machine only) needs "
-                                   "--token-file: every request must then carry the token")
+                                   "--token-file: every request must then carry a token")
+    tls = _tls(args)
     config = ServiceConfig(stereo=args.stereo, models=args.models, camera=args.camera,
                            searches=args.searches, results_kept=args.results_kept,
-                           max_upload_bytes=args.max_upload_mb << 20, token=token,
+                           max_upload_bytes=args.max_upload_mb << 20,
+                           token_file=args.token_file, audit_log=args.audit_log,
+                           host=args.host, tls=tls is not None,
                            threshold=args.threshold_file, prepared_models=args.prepared_models,
                            source=args.source, max_skew_ms=args.max_skew_ms,
                            record_dir=args.record_dir)
@@ -104,17 +123,22 @@ def run(args: argparse.Namespace) -> int:
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
-    say(f"serve: http://{args.host}:{args.port}/ (warming up: /health says 'warming' until "
-        "ready)")
+    shown = f"[{args.host}]" if ":" in args.host else args.host
+    say(f"serve: {'https' if tls else 'http'}://{shown}:{args.port}/ (warming up: /health "
+        "says 'warming' until ready)")
+    warning = exposure_warning(config)
+    if warning is not None:
+        say(f"serve: warning: {warning}")
+    say(f"serve: audit trail {cell.audit.path}")
     if cell.source is not None:
         say(f"serve: camera source {cell.source.name} (POST /trigger/locate, "
             "/trigger/identify, /record)")
     opcua = None
     try:
         if args.opcua is not None:
-            opcua = _start_opcua(cell, args.host, args.opcua, token)
+            opcua = _start_opcua(cell, args.host, args.opcua, cell.tokens, tls, args.tls_ca)
             say(f"serve: OPC UA {opcua.endpoint_url} (PhotomodelVision.Locate, Identify)")
-        serve(cell, args.host, args.port, progress=say, log_level=args.log_level)
+        serve(cell, args.host, args.port, progress=say, log_level=args.log_level, tls=tls)
     finally:
         if opcua is not None:
             opcua.stop()
@@ -122,8 +146,44 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _start_opcua(cell: Any, host: str, port: int, token: str | None) -> Any:
-    """The OPC UA face over ``cell``'s trigger methods, listening in its own thread."""
+def _tls(args: argparse.Namespace) -> Any:
+    """The checked ``--tls-cert``/``--tls-key`` pair, or None."""
+    from photomodel.service._server import TlsFiles
+
+    if (args.tls_cert is None) != (args.tls_key is None):
+        missing = "--tls-key" if args.tls_key is None else "--tls-cert"
+        raise InputError(missing, "--tls-cert and --tls-key go together")
+    if args.tls_cert is None:
+        if args.tls_ca is not None:
+            raise InputError("--tls-ca", "needs --tls-cert and --tls-key")
+        return None
+    tls = TlsFiles(args.tls_cert, args.tls_key)
+    tls.check()
+    if args.tls_ca is not None and not args.tls_ca.is_file():
+        raise InputError("--tls-ca", f"{args.tls_ca}: no such file")
+    return tls
+
+
+def _start_opcua(cell: Any, host: str, port: int, tokens: Any = None, tls: Any = None,
+                 ca: Path | None = None, *, certificate: Path | None = None,
+                 private_key: Path | None = None, audit: Any = None) -> Any:
+    """The OPC UA face over ``cell``'s trigger methods, listening in its own thread.
+
+    ``tokens``: the credentials (a ``TokenBook``, a callable giving the current one such as
+    ``cell.tokens``, or one token string as before); ``certificate`` and ``private_key``
+    (or ``tls``, the checked ``--tls-cert``/``--tls-key`` pair) make it sign and encrypt;
+    ``ca`` (``--tls-ca``; default ``ca.pem`` beside the certificate when there is one) is
+    the CA whose client certificates it trusts; ``audit`` defaults to the cell's trail.
+    """
+    if tls is not None:
+        certificate = certificate or tls.cert
+        private_key = private_key or tls.key
+    if ca is None and certificate is not None and (Path(certificate).parent
+                                                   / "ca.pem").is_file():
+        ca = Path(certificate).parent / "ca.pem"
+    if audit is None:
+        audit = getattr(cell, "audit", None)
+    token = tokens if isinstance(tokens, str) else None
     try:
         from photomodel.service._opcua import OpcUaFace, run_opcua_in_thread
 
@@ -139,10 +199,19 @@ def _start_opcua(cell: Any, host: str, port: int, token: str | None) -> Any:
             return cell.threads.call(partial(register_from_camera, cell, name))
 
         face = OpcUaFace(locate, identify, register=register, token=token,
+                         tokens=None if token is not None else tokens,
+                         certificate=certificate, private_key=private_key, ca=ca,
+                         audit=audit,
                          endpoint=f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}"
                                   "/photomodel/")
     except ImportError as exc:
         raise InputError("--opcua", str(exc)) from None
+    except InputError as exc:            # the face's argument named as the option giving it
+        options = {"certificate": "--tls-cert", "private_key": "--tls-key", "ca": "--tls-ca",
+                   "tokens": "--token-file", "token": "--token-file"}
+        if exc.source not in options:
+            raise
+        raise InputError(f"{options[exc.source]} (--opcua)", exc.problem) from None
     try:
         return run_opcua_in_thread(face)
     except OSError as exc:

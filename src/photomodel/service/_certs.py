@@ -15,8 +15,10 @@ from photomodel.errors import InputError
 
 __all__ = ["APPLICATION_URI", "CLIENT_URI", "CertFiles", "make_certs"]
 
-APPLICATION_URI = "urn:photomodel:cell"
-"""The OPC UA application URI of the service, in the server certificate's names."""
+APPLICATION_URI = "urn:photomodel:cell:server"
+"""The OPC UA application URI of the service, in the server certificate's names (not the
+face's namespace ``urn:photomodel:cell``: OPC UA puts the application URI at namespace index
+1, and the contract keeps the nodes at 2)."""
 CLIENT_URI = "urn:photomodel:client"
 """The OPC UA application URI in the client certificate's names."""
 RSA_BITS = 2048           # OPC UA's Basic256Sha256 needs RSA keys of 2048 to 4096 bits

@@ -9,13 +9,22 @@ answer as HTTP ``/trigger/locate`` and ``/trigger/identify`` do, and optionally
 where that is) and runs them one at a time
 in a worker thread, never on the server's event loop. ``asyncua`` (the ``plc`` extra) is
 imported only when a face is built.
+
+Security, on asyncua's own hooks: with a certificate the only endpoint is Basic256Sha256
+SignAndEncrypt and asyncua's certificate validator (:class:`ClientCertificates`) accepts
+client certificates signed by the given CA only (checked again, on the secure channel's own
+certificate, at every session activation: :func:`internal_server_class`); the user manager
+(:class:`Users`) maps a user name and token to the token file's credential; the permission
+ruleset (:class:`Rules`), which asyncua asks before every request, refuses ``Register`` to
+a role below ``admin`` and hands the caller to the method (a contextvar: asyncua serves each
+connection in its own task). Logins, failed logins and refusals go to the audit trail.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import enum
-import hmac
 import logging
 import math
 import threading
@@ -24,10 +33,26 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from datetime import UTC, datetime
 from functools import partial
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
 
 from photomodel.errors import InputError, PhotomodelError
+from photomodel.service._audit import ACTOR, AuditLog
+from photomodel.service._auth import Throttle, TokenBook, allows
+from photomodel.service._certs import APPLICATION_URI
+from photomodel.service._opcua_security import (
+    CALLER,
+    SECURE_POLICY,
+    USER,
+    ClientCertificates,
+    Rules,
+    Users,
+    caller_actor,
+    check_tokens,
+    internal_server_class,
+    load_tls,
+)
 
 if TYPE_CHECKING:
     from asyncua import Server, ua
@@ -45,11 +70,6 @@ OBJECT_NAME = "PhotomodelVision"
 """The object under ``Objects`` that holds the methods and the result variables; every node's
 id is the string ``PhotomodelVision.<BrowseName>`` in :data:`NAMESPACE`."""
 
-APPLICATION_URI = "urn:photomodel:cell:server"
-"""The server's ApplicationUri (namespace 1)."""
-
-USER = "photomodel"
-"""The user name a client gives with the token as its password (when a token is set)."""
 
 _EXTRA_HINT = "the OPC UA face needs the 'plc' extra: pip install photomodel[plc]"
 _NO_TIME = datetime(1601, 1, 1, tzinfo=UTC)   # OPC UA's null DateTime
@@ -100,10 +120,10 @@ def _import_asyncua() -> Any:
     return asyncua
 
 
-def _check_endpoint(endpoint: str, token: str | None) -> tuple[str, int]:
+def _check_endpoint(endpoint: str, credentials: bool) -> tuple[str, int]:
     """The host and port of ``endpoint`` (``opc.tcp://HOST:PORT/PATH``; port 0 takes a free
     one); InputError (a ValueError) for another form, and for a host that is not this machine
-    only (127.0.0.0/8, ::1, ``localhost``) without a ``token``."""
+    only (127.0.0.0/8, ::1, ``localhost``) without ``credentials``."""
     from photomodel.service._server import is_loopback
 
     try:
@@ -114,20 +134,12 @@ def _check_endpoint(endpoint: str, token: str | None) -> tuple[str, int]:
                                      f"({exc})") from None
     if parts.scheme != "opc.tcp" or not parts.hostname or port is None:
         raise InputError("endpoint", f"expected opc.tcp://HOST:PORT/PATH, got {endpoint!r}")
-    if token is None and not is_loopback(parts.hostname):
+    if not credentials and not is_loopback(parts.hostname):
         raise InputError("endpoint", f"binding OPC UA to {parts.hostname} (not this machine "
-                                     "only) needs credentials: give the service's token "
-                                     "(--token-file); clients then log in as user "
-                                     f"{USER!r} with the token as password")
+                                     "only) needs credentials: give the service's tokens "
+                                     "(--token-file); clients then log in with a token as "
+                                     f"password and its label (or {USER!r}) as user name")
     return parts.hostname, port
-
-
-def _check_token(token: str | None) -> str | None:
-    if token is not None and (len(token) < 16 or any(c.isspace() or not c.isprintable()
-                                                     for c in token)):
-        raise InputError("token", "expected one token of at least 16 printable characters "
-                                  "without spaces")
-    return token
 
 
 class _Refused(Exception):
@@ -194,23 +206,61 @@ class OpcUaFace:
     locate : callable
         ``locate(model) -> dict``: the ``/locate`` answer (the ``locate --json`` object plus
         ``id``) for a fresh frame; raises a :class:`PhotomodelError` with a one-line message
-        on failure. Blocking: it runs in the face's worker thread.
+        on failure. Blocking: it runs in the face's worker thread, in a copy of the caller's
+        context with :data:`~photomodel.service._audit.ACTOR` set (face ``opcua``).
     identify : callable
         ``identify() -> dict``: the ``/identify`` answer for a fresh frame, likewise.
+    register : callable or None
+        ``register(name) -> dict``: build and add a model of the garment where it lies (the
+        ``Register`` method; absent without it). Only an ``admin`` credential may call it.
     endpoint : str
         ``opc.tcp://HOST:PORT/PATH`` to listen on; port 0 takes a free one (see
-        :attr:`endpoint_url` once started). Only this machine unless ``token`` is given.
+        :attr:`endpoint_url` once started). Only this machine unless there are credentials
+        (``tokens`` or ``token``); beyond it without a certificate, a warning is logged that
+        the traffic is not encrypted.
     token : str or None
-        The service's token (:func:`photomodel.service.read_token`). When set, clients log
-        in as user :data:`USER` with the token as password and anonymous sessions are
-        refused; without it, any local client may connect anonymously.
+        One token (earlier versions' single token): an ``admin`` credential whose user name
+        is :data:`USER`. Not with ``tokens``.
+    tokens : TokenBook or callable or None
+        The credentials (:class:`~photomodel.service._auth.TokenBook`, or a callable giving
+        the current ones, such as ``TokenFile(path).book``, asked at every login and
+        request: a removed token stops working, a changed role applies at once). Clients
+        log in with a credential's token as password and its label, or :data:`USER`, as
+        user name; anonymous sessions are refused. ``Register`` needs the ``admin`` role,
+        the other methods ``controller``. Without credentials, any local client may connect
+        anonymously and call every method.
+    certificate, private_key : Path or None
+        The server's certificate (PEM, or DER; a chain's first) and its unencrypted RSA key
+        (2048 to 4096 bits), together. With them, the only endpoint is Basic256Sha256
+        SignAndEncrypt (:data:`SECURE_POLICY`: no unencrypted one), and the server's
+        ApplicationUri is the first URI the certificate names (``photomodel certs``:
+        :data:`~photomodel.service._certs.APPLICATION_URI`).
+    ca : Path or None
+        The CA certificate whose signed client certificates are trusted; a client whose
+        certificate it did not sign, that is expired, or whose key usage, extended key usage
+        (clientAuth) or URI (the client's ApplicationUri) does not fit, is refused
+        (``BadCertificateUntrusted`` and kin). Without it, and with a certificate, any client
+        certificate that fits is accepted (logged as a warning at start).
+    audit : AuditLog or None
+        Where logins (``login``), failed logins (``login-failed``), refusals (``refused``:
+        a role's forbidden call, a throttled login, an untrusted client certificate) go,
+        each with face ``opcua``, the client's address and the user.
+
+    Attributes
+    ----------
+    throttle : Throttle
+        Failed logins per client address: from 10 within a minute, a login from that
+        address is refused without looking at its token until the oldest is a minute old
+        (another may be set before :meth:`start`).
 
     Raises
     ------
     ImportError
         Without ``asyncua`` (the ``plc`` extra).
     InputError
-        An endpoint of another form, or one that is not local without a token.
+        An endpoint of another form, one that is not local without credentials, both
+        ``token`` and ``tokens``, a certificate without its key (or the reverse, or ``ca``
+        alone), or a certificate, key or CA that cannot serve.
 
     Examples
     --------
@@ -222,10 +272,16 @@ class OpcUaFace:
     def __init__(self, locate: Callable[[str], dict[str, Any]],
                  identify: Callable[[], dict[str, Any]], *,
                  register: Callable[[str], dict[str, Any]] | None = None,
-                 endpoint: str = DEFAULT_ENDPOINT, token: str | None = None) -> None:
+                 endpoint: str = DEFAULT_ENDPOINT, token: str | None = None,
+                 tokens: TokenBook | Callable[[], TokenBook] | None = None,
+                 certificate: Path | None = None, private_key: Path | None = None,
+                 ca: Path | None = None, audit: AuditLog | None = None) -> None:
         _import_asyncua()
-        self.token = _check_token(token)
-        self.host, self.port = _check_endpoint(endpoint, self.token)
+        self.tokens = check_tokens(token, tokens)
+        self.host, self.port = _check_endpoint(endpoint, self.tokens is not None)
+        self._tls = load_tls(certificate, private_key, ca)
+        self.audit = audit
+        self.throttle = Throttle()
         self._endpoint = endpoint
         self._locate = locate
         self._identify = identify
@@ -235,6 +291,11 @@ class OpcUaFace:
         self._executor: ThreadPoolExecutor | None = None
         self._job: str | None = None          # what runs now, for the Busy answer
         self.state = State.READY
+
+    @property
+    def encrypted(self) -> bool:
+        """Whether the face signs and encrypts (it has a certificate)."""
+        return self._tls is not None
 
     @property
     def endpoint_url(self) -> str:
@@ -253,25 +314,55 @@ class OpcUaFace:
     async def start(self) -> None:
         """Build the address space and listen (about 1-2 s: asyncua builds the standard
         address space first)."""
+        from photomodel.service._server import is_loopback
+
         asyncua = _import_asyncua()
         ua = asyncua.ua
         logging.getLogger("asyncua.server.server").addFilter(_START_FILTER)   # once: a set
-        server = asyncua.Server(user_manager=_TokenUsers(self.token) if self.token else None)
+        iserver = internal_server_class()(
+            user_manager=Users(self.tokens, self.throttle, self.audit))
+        server = asyncua.Server(iserver=iserver)
         await server.init()
         server.set_server_name("photomodel cell")
-        await server.set_application_uri(APPLICATION_URI)
+        tls = self._tls
+        if tls is None:
+            await server.set_application_uri(APPLICATION_URI)
+            policy = ua.SecurityPolicyType.NoSecurity
+            if not is_loopback(self.host):
+                _log.warning("OPC UA on %s without a certificate: its traffic, tokens "
+                             "included, is not encrypted (give --tls-cert and --tls-key)",
+                             self.host)
+        else:
+            await server.load_certificate(tls.cert_der)
+            await server.load_private_key(tls.key_der)
+            await server.set_application_uri(tls.application_uri)
+            certificates = ClientCertificates(tls.ca, self.audit)
+            server.set_certificate_validator(certificates)
+            iserver.channel_check = certificates.check_channel
+            policy = getattr(ua.SecurityPolicyType, SECURE_POLICY)
+            if tls.ca is None:
+                _log.warning("OPC UA without a CA to trust (--tls-ca): any client "
+                             "certificate is accepted")
+        rules = Rules(self.tokens, self.audit)
         server.set_endpoint(self._endpoint)
-        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
-        server.set_identity_tokens([ua.UserNameIdentityToken] if self.token
+        server.set_security_policy([policy], permission_ruleset=rules)
+        server.set_identity_tokens([ua.UserNameIdentityToken] if self.tokens
                                    else [ua.AnonymousIdentityToken])
         idx = await server.register_namespace(NAMESPACE)
+        if idx != 2:
+            _log.warning("OPC UA: the nodes are in namespace index %d, not 2 (the "
+                         "certificate's application URI %s is their namespace)", idx,
+                         server.get_application_uri())
         await self._build(server, idx)
+        if self._register is not None:
+            rules.register_id = ua.NodeId(f"{OBJECT_NAME}.Register", idx)
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="photomodel-opcua")
         await server.start()
         bound = server.bserver.port if server.bserver is not None else self.port
         self.port = int(bound) if bound else self.port
         self._server = server
-        _log.info("OPC UA face listening on %s", self.endpoint_url)
+        _log.info("OPC UA face listening on %s (%s)", self.endpoint_url,
+                  SECURE_POLICY if tls else "no security")
 
     async def stop(self) -> None:
         """Stop listening; a job in flight finishes in its thread, unanswered."""
@@ -400,7 +491,14 @@ class OpcUaFace:
     async def _call(self, method: str, args: tuple[Any, ...], names: list[str]) -> Any:
         from asyncua import ua
 
+        caller = CALLER.get()
         try:
+            if (method == "Register" and self.tokens is not None
+                    and (caller is None or caller.credential is None
+                         or not allows(caller.credential.role, "admin"))):
+                # the ruleset refuses it before: this holds should asyncua call it anyway
+                raise _Refused(ua.StatusCodes.BadUserAccessDenied,
+                               "Register: needs the admin role")
             values = _check_args(method, args, names)
             if self.state is State.BUSY:
                 raise _Refused(ua.StatusCodes.BadInvalidState,
@@ -425,9 +523,11 @@ class OpcUaFace:
         await self._write(Found=False, Model="", PositionMm=[math.nan] * 3,
                           QuatWxyz=[math.nan] * 4, ThetaDeg=math.nan, Score=math.nan,
                           Timestamp=_NO_TIME, ResultId="", LastCallText="")
+        context = contextvars.copy_context()        # the cell's audit knows who: ACTOR
+        context.run(ACTOR.set, caller_actor(caller, self.tokens is not None))
         try:
             assert self._executor is not None
-            answer = await loop.run_in_executor(self._executor, job)
+            answer = await loop.run_in_executor(self._executor, partial(context.run, job))
             outputs = await self._publish(method, answer)
         except Exception as exc:  # noqa: BLE001 - every failure is answered, the server stays
             code, text = _status_of(exc)
@@ -508,23 +608,6 @@ def _bad(code: int, text: str, n_args: int, argument: int | None = None) -> Any:
             ua.DiagnosticInfo(AdditionalInfo=text if i == argument else None)
             for i in range(n_args)]
     return result
-
-
-class _TokenUsers:
-    """asyncua's user manager: user :data:`USER` with the token as password, nobody else."""
-
-    def __init__(self, token: str) -> None:
-        self._token = token.encode()
-
-    def get_user(self, iserver: Any, username: str | None = None,
-                 password: str | None = None, certificate: Any = None) -> Any:
-        from asyncua.crypto.permission_rules import User, UserRole
-
-        if (username == USER and password is not None
-                and hmac.compare_digest(password.encode(), self._token)):
-            return User(role=UserRole.User, name=username)
-        _log.warning("OPC UA login refused (user %r)", username)
-        return None
 
 
 class OpcUaThread:
