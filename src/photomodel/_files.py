@@ -33,11 +33,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes, *, mode: int = 0o644
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
         try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
-            if fsync:
-                os.fsync(fd)
+            _write_all(fd, data, fsync)
         finally:
             os.close(fd)
         os.replace(tmp, path)
@@ -86,10 +82,16 @@ def append_lines(path: str | os.PathLike[str], lines: Sequence[bytes], *, mode: 
             tail = os.pread(fd, min(size, 1 << 20), max(0, size - (1 << 20)))
             os.ftruncate(fd, size - len(tail) + tail.rfind(b"\n") + 1
                          if b"\n" in tail else max(0, size - len(tail)))
-        view = memoryview(b"".join(line + b"\n" for line in lines))
-        while view:
-            view = view[os.write(fd, view):]
-        if fsync:
-            os.fsync(fd)
+        _write_all(fd, b"".join(line + b"\n" for line in lines), fsync)
     finally:
         os.close(fd)
+
+
+def _write_all(fd: int, data: bytes, fsync: bool) -> None:
+    """Write all of ``data`` to ``fd`` (one ``write`` unless the system takes less), then
+    flush it to disk with ``fsync``."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+    if fsync:
+        os.fsync(fd)
