@@ -16,7 +16,7 @@ from photomodel.fitness import (
     _scan,
     prepare_scan,
 )
-from photomodel.locate import COARSE_SCAN, Locator, prepare_model
+from photomodel.locate import COARSE_SCAN, LocateSettings, Locator, prepare_model
 from photomodel.search import PyramidConfig, SearchSpace
 
 
@@ -59,7 +59,7 @@ def test_a_locator_prepares_its_model_once_and_no_pair_builds_more(
     blurred, rig_b, right_b, left_b, T_blur, _ = _inputs("blur")
     assert blurred is model and rig_b is rig
     result = locate.locate_features(StereoFeatures(rig, right_b, left_b), rng=0,
-                                    coarse_scan=None)    # level 3's scan
+                                    settings=LocateSettings(coarse_scan=None))   # level 3's
     assert result.found and np.linalg.norm(result.T_cam1_model[:3, 3] - T_blur[:3, 3]) < 3.0
     assert result.optics_blur_mm is not None and result.optics_blur_mm > 0.5
     assert counting == []

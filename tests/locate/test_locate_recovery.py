@@ -119,26 +119,27 @@ def test_locate_searches_again_while_the_score_is_below_the_threshold(plaid_case
     assert 0.0 <= once.to_json_dict()["optics_blur_mm"] <= 1.0         # rendered in focus
     blank = np.full_like(scene.right_bgr, 128)                         # nothing on the table
     from photomodel.fitness import StereoFeatures
-    from photomodel.locate import locate_in_features
+    from photomodel.locate import LocateSettings, locate_in_features
 
     features = StereoFeatures(plaid_case.rig, blank, blank)
     twice = locate_in_features(plaid_case.built.model, features, rng=0)
     assert not twice.found and twice.search.stop_reason.startswith("best of 2 searches")
-    single = locate_in_features(plaid_case.built.model, features, rng=0, retries=0)
+    single = locate_in_features(plaid_case.built.model, features, rng=0,
+                                settings=LocateSettings(retries=0))
     assert twice.search.evaluations > single.search.evaluations
     with pytest.raises(ValueError, match="retries"):
-        locate_in_features(plaid_case.built.model, features, retries=-1)
+        LocateSettings(retries=-1)
 
 
 def test_locate_looks_with_the_level_3_scan_when_the_coarse_one_scores_under(plaid_case) -> None:
     from photomodel.fitness import StereoFeatures
-    from photomodel.locate import locate_in_features
+    from photomodel.locate import LocateSettings, locate_in_features
 
     scene = random_stereo_scene(plaid_case.garment, plaid_case.rig, rng=1001)
     features = StereoFeatures(plaid_case.rig, scene.right_bgr, scene.left_bgr)
     model = plaid_case.built.model
     coarse = locate_in_features(model, features, rng=0)
-    fine = locate_in_features(model, features, rng=0, coarse_scan=None)
+    fine = locate_in_features(model, features, rng=0, settings=LocateSettings(coarse_scan=None))
     assert coarse.found and fine.found and "searches" not in coarse.search.stop_reason
     assert np.abs(coarse.T_cam1_model[:3, 3] - fine.T_cam1_model[:3, 3]).max() < 1.0
     # A threshold no search reaches: the coarse search, level 3's and its retry.

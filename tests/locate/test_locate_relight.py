@@ -9,7 +9,7 @@ import pytest
 
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import StereoFeatures, scan_flat_poses
-from photomodel.locate import COARSE_SCAN, _locate, locate_in_features
+from photomodel.locate import COARSE_SCAN, LocateSettings, _locate, locate_in_features
 from photomodel.search import SearchSpace
 
 
@@ -36,6 +36,6 @@ def test_a_dim_scene_is_found_from_the_relit_coarse_scan(monkeypatch: pytest.Mon
     assert result.found and levels == [4]
     assert np.linalg.norm(result.T_cam1_model[:3, 3] - T_true[:3, 3]) < 3.0
     levels.clear()
-    unlit = locate_in_features(model, features, rng=0,
-                               coarse_scan=replace(COARSE_SCAN, relight=0))
+    unlit = locate_in_features(model, features, rng=0, settings=LocateSettings(
+        coarse_scan=replace(COARSE_SCAN, relight=0)))
     assert unlit.found and levels == [4, 3]

@@ -10,7 +10,13 @@ import pytest
 from photomodel.experiments._trials import ExperimentConfig, Trial, trial_inputs
 from photomodel.fitness import ScanConfig, SoftFitness, StereoFeatures
 from photomodel.geometry import strained_matrices
-from photomodel.locate import COARSE_SCAN, LocateResult, locate, locate_in_features
+from photomodel.locate import (
+    COARSE_SCAN,
+    LocateResult,
+    LocateSettings,
+    locate,
+    locate_in_features,
+)
 from photomodel.search import PyramidConfig
 from photomodel.sim import scene_rng
 
@@ -29,7 +35,8 @@ def _located(condition: str, garment: str, index: int,
     if pyramid is None:
         return locate(model, rig, right, left, rng=rng), T_true
     return locate_in_features(model, StereoFeatures(rig, right, left), rng=rng,
-                              pyramid=pyramid, coarse_scan=coarse_scan), T_true
+                              settings=LocateSettings(pyramid=pyramid,
+                                                      coarse_scan=coarse_scan)), T_true
 
 
 def _rotation_error_deg(A: np.ndarray, B: np.ndarray) -> float:

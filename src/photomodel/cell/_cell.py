@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +38,9 @@ from scipy.spatial.transform import Rotation
 from photomodel.camera import StereoRig
 from photomodel.geometry import in_plane_angle_rad, invert_transform, make_transform
 from photomodel.model import PhotoModel
+
+if TYPE_CHECKING:
+    from photomodel.locate import Locator, Method
 from photomodel.robot import (
     ArmModel,
     CellLayout,
@@ -176,6 +179,18 @@ class CellSetup:
     T_hand_cam1: NDArray[np.float64]
     q_photo: NDArray[np.float64]
     hand_eye_info: dict[str, Any]
+    locators: dict[tuple[str, int, str], Locator] = field(default_factory=dict, repr=False,
+                                                          compare=False)
+
+    def locator(self, garment: str, seed: int, method: Method) -> Locator:
+        """The cell's :class:`~photomodel.Locator` of a garment's station model, made once
+        and kept for its next cycles."""
+        from photomodel.locate import Locator
+
+        key = (garment, seed, repr(method))
+        if key not in self.locators:
+            self.locators[key] = Locator(_photo_model(garment, seed), self.rig, method=method)
+        return self.locators[key]
 
 
 def make_cell(config: CellConfig) -> CellSetup:
@@ -205,6 +220,7 @@ def _photo_model(garment: str, seed: int) -> PhotoModel:
     return station_model(garment, seed)
 
 
+
 @dataclass(frozen=True)
 class CycleOutcome:
     """One cycle's record (JSON-ready) and, when planned, its plan."""
@@ -217,7 +233,6 @@ class CycleOutcome:
 
 def run_cycle(config: CellConfig, setup: CellSetup, index: int) -> CycleOutcome:
     """Run order ``index`` (module docstring); never raises for an unreachable plan."""
-    from photomodel.locate import locate
     from photomodel.sim import catalogue_garment, parse_conditions, scene_rng, simulate_scene
 
     garment = config.garments[index % len(config.garments)]
@@ -227,9 +242,9 @@ def run_cycle(config: CellConfig, setup: CellSetup, index: int) -> CycleOutcome:
                           parse_conditions(config.condition),
                           scene_rng(config.seed, "cell", garment, index))
     assert shot.T_cam1_model is not None
-    result = locate(model, setup.rig, shot.right_bgr, shot.left_bgr,
-                    method=config.method,  # type: ignore[arg-type]
-                    rng=scene_rng(config.seed, "cell-search", garment, index))
+    locator = setup.locator(garment, config.seed, config.method)  # type: ignore[arg-type]
+    result = locator(shot.right_bgr, shot.left_bgr,
+                     rng=scene_rng(config.seed, "cell-search", garment, index))
     T_base_hand = forward_kinematics(setup.arm, setup.q_photo)
     T_true = T_base_hand @ setup.T_hand_cam1_true @ shot.T_cam1_model
     T_est = T_base_hand @ setup.T_hand_cam1 @ result.T_cam1_model

@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.errors import InputError, PhotomodelError
-from photomodel.locate import LocateResult, Method, locate
+from photomodel.locate import LocateResult, Locator, Method
 from photomodel.model import PhotoModel
 from photomodel.robot import (
     ArmModel,
@@ -74,12 +74,15 @@ class PickResult:
                 "T_base_model": self.plan.T_base_model.tolist(), **self.plan.to_json_dict()}
 
 
-def pick(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+def pick(model: PhotoModel | Locator, rig: StereoRig, right_bgr: NDArray[np.uint8],
          left_bgr: NDArray[np.uint8], arm: ArmModel, q: ArrayLike,
          T_hand_cam1: NDArray[np.float64], *, layout: CellLayout | None = None,
          settings: PickSettings | None = None, rng: int = 0,
          method: Method = "default") -> PickResult:
     """Locate ``model`` in the stereo pair taken at joints ``q`` (n,) rad and plan its pick.
+
+    ``model`` is a photo-model, or a :class:`~photomodel.Locator` of one for ``rig`` that a
+    cell keeps from pick to pick (``method`` is then the Locator's).
 
     Raises
     ------
@@ -89,9 +92,10 @@ def pick(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
         The plan cannot be executed within the joint limits.
     """
     q_arr = arm.check_joints(q, "--joints-deg")
-    located = locate(model, rig, right_bgr, left_bgr, method=method, rng=rng)
+    locator = model if isinstance(model, Locator) else Locator(model, rig, method=method)
+    located = locator(right_bgr, left_bgr, rng=rng)
     if not located.found:
-        raise PhotomodelError(f"{model.name}: not found in the stereo pair (score "
+        raise PhotomodelError(f"{locator.model.name}: not found in the stereo pair (score "
                               f"{located.score:.2f}); nothing to pick")
     T_base_hand = forward_kinematics(arm, q_arr)
     T_base_model = T_base_hand @ T_hand_cam1 @ located.T_cam1_model

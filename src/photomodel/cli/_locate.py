@@ -110,12 +110,9 @@ def run(args: argparse.Namespace) -> int:
                       min_score=args.min_score, threshold=args.threshold_file)
     if paper and sys.stderr.isatty():
         from photomodel.cli._progress import search_progress
-        from photomodel.locate import locate
 
         with search_progress(f"locating {model.name}", enabled=True) as progress:
-            result = locate(model, rig, right, left, method=method,  # type: ignore[arg-type]
-                            rng=args.seed, space=space, min_score=locator.min_score,
-                            progress=progress)
+            result = locator(right, left, rng=args.seed, progress=progress)
     else:
         result = locator(right, left, rng=args.seed)
     if args.overlay is not None:

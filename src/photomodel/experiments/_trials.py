@@ -21,7 +21,7 @@ import numpy as np
 from photomodel.camera import StereoRig, load_camera, load_distance_mm, load_stereo
 from photomodel.geometry import in_plane_angle_rad
 from photomodel.image import read_color_image
-from photomodel.locate import LocateResult, Locator, PaperMethod, locate
+from photomodel.locate import LocateResult, Locator, Method, PaperMethod
 from photomodel.model import PhotoModel, build_photo_model
 from photomodel.search import GAConfig
 
@@ -200,24 +200,28 @@ def _locate(config: ExperimentConfig, trial: Trial, model: PhotoModel, rig: Ster
     from photomodel.sim import scene_rng
 
     rng = scene_rng(config.seed, "search", trial.trial_id)
+    locator = trial_locator(config, trial.garment)
+    if locator.model is not model:   # not the experiment's own model
+        locator = Locator(model, rig, method=_method(config))
+    return locator(right, left, rng=rng)
+
+
+def _method(config: ExperimentConfig) -> Method:
+    """The experiment's way of locating: the default method, or a :class:`PaperMethod`."""
     if config.fitness == "soft" and not config.paper:
-        locator = trial_locator(config, trial.garment)
-        if locator.model is not model:   # not the experiment's own model
-            locator = Locator(model, rig)
-        return locator(right, left, rng=rng)
+        return "default"
     cap = {} if config.max_generations is None else {"max_generations": config.max_generations}
     ga = GAConfig.paper(**cap) if config.paper else GAConfig(**cap)  # type: ignore[arg-type]
-    method = PaperMethod(fitness="paper" if config.paper else config.fitness,
-                         optimizer=config.optimizer,  # type: ignore[arg-type]
-                         refine=config.refine and not config.paper, ga=ga)
-    return locate(model, rig, right, left, method=method, rng=rng)
+    return PaperMethod(fitness="paper" if config.paper else config.fitness,
+                       optimizer=config.optimizer,  # type: ignore[arg-type]
+                       refine=config.refine and not config.paper, ga=ga)
 
 
 @lru_cache(maxsize=64)
 def trial_locator(config: ExperimentConfig, garment: str) -> Locator:
-    """A :class:`~photomodel.Locator` (default method) of the garment's model
-    (:func:`trial_inputs`'s) with the experiment's rig, kept for its next trials."""
-    return Locator(_model(config, garment), _rig(config))
+    """A :class:`~photomodel.Locator` of the garment's model (:func:`trial_inputs`'s) with
+    the experiment's rig and method, kept for its next trials."""
+    return Locator(_model(config, garment), _rig(config), method=_method(config))
 
 
 def trial_record(trial: Trial, result: LocateResult, T_true: np.ndarray,

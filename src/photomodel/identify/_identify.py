@@ -64,7 +64,7 @@ from photomodel.fitness import (
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
 from photomodel.identify._labels import LabelCheck
-from photomodel.locate import COARSE_SCAN, LocateResult, locate_in_features
+from photomodel.locate import COARSE_SCAN, LocateResult, LocateSettings, locate_in_features
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel
 from photomodel.model._descriptor import ModelDescriptor, describe_model
@@ -343,6 +343,8 @@ def identify_with_bank(
     top = float(evidence[order[0]]) if len(order) else 0.0
     floor = max(c.min_evidence, top - c.candidate_margin)
     chosen = [int(i) for i in order[: c.max_candidates] if evidence[i] >= floor]
+    settings = LocateSettings(retries=0) if c.coarse_min_score is None else \
+        LocateSettings(retries=0, coarse_min_score=c.coarse_min_score)
     located: dict[int, LocateResult] = {}
     scans: dict[int, ScanResult] = {}
     models: dict[int, PreparedModel] = {}
@@ -360,10 +362,9 @@ def identify_with_bank(
             models[i] = prepared(i)
         r = locate_in_features(models[i], features, space=space,
                                rng=_model_rng(base, bank.names[i], attempt),
-                               min_score=min_score, t0=time.perf_counter(), retries=0,
-                               second_look=attempt > 0, coarse=scans.get(i),
-                               **({} if c.coarse_min_score is None
-                                  else {"coarse_min_score": c.coarse_min_score}))
+                               min_score=min_score, t0=time.perf_counter(),
+                               settings=settings, second_look=attempt > 0,
+                               coarse=scans.get(i))
         if i not in located or r.score > located[i].score:
             located[i] = r
         if enough is not None and enough(list(located.values())):

@@ -55,6 +55,7 @@ __all__ = [
     "LocateResult",
     "Method",
     "PaperMethod",
+    "LocateSettings",
     "locate",
     "locate_in_features",
     "make_optimizer",
@@ -257,9 +258,8 @@ def locate(
 ) -> LocateResult:
     """Search the pose ``T_cam1_model`` of ``model`` that best explains both images.
 
-    One call of :class:`~photomodel.Locator`; a cell that locates one model in many stereo
-    pairs keeps a ``Locator`` (or passes a :class:`~photomodel.fitness.PreparedModel`), so
-    that the model is prepared once.
+    One call of a new :class:`~photomodel.Locator`: for one pair only. A cell that locates
+    one model in many stereo pairs keeps a ``Locator``, so that the model is prepared once.
 
     Parameters
     ----------
@@ -289,28 +289,31 @@ def locate(
     -------
     LocateResult
     """
-    rig.cam1.check_image(right_bgr, "right image")
-    rig.cam2.check_image(left_bgr, "left image")
-    t0 = time.perf_counter()
-    space = space or SearchSpace.from_ranges(R_cam1_plane=rig.R_cam1_facing)
+    from photomodel.locate._locator import Locator
+
+    locator = Locator(model, rig, space, method, min_score=min_score)
+    return locator(right_bgr, left_bgr, rng, progress=progress)
+
+
+def locate_paper(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8],
+                 left_bgr: NDArray[np.uint8], paper: PaperMethod, *, space: SearchSpace,
+                 min_score: float, rng: int | np.random.Generator | None = None,
+                 progress: Callable[[Optimizer], None] | None = None,
+                 t0: float | None = None) -> LocateResult:
+    """The paper's way (:class:`PaperMethod`): its fitness of both images searched by a
+    global optimiser (``progress`` called after each generation), on images of checked
+    sizes; ``found`` from ``min_score``."""
+    t0 = time.perf_counter() if t0 is None else t0
     gen = np.random.default_rng(rng)
-    paper = paper_method(method)
-    if paper is None:
-        features = StereoFeatures(rig, right_bgr, left_bgr)
-        return locate_in_features(model, features, space=space, rng=gen, min_score=min_score,
-                                  t0=t0)
-    bare = model.model if isinstance(model, PreparedModel) else model
-    objective = make_fitness(paper.fitness, bare, rig, right_bgr, left_bgr)
+    objective = make_fitness(paper.fitness, model, rig, right_bgr, left_bgr)
     opt = make_optimizer(paper.optimizer, space, gen, paper.ga, paper.full)
     if paper.refine:
         opt = GlobalThenLocal(opt, space, paper.refine_config, gen)
     result = run_search(opt, objective, progress)
-    seconds = time.perf_counter() - t0
     T = pose_vectors_to_matrices(result.x)[0]
     score = objective.score(result.fitness)
-    threshold = paper.min_score if min_score is None else min_score
-    return LocateResult(bare.name, bool(score >= threshold), T, float(result.fitness), score,
-                        seconds, result)
+    return LocateResult(model.name, bool(score >= min_score), T, float(result.fitness), score,
+                        time.perf_counter() - t0, result)
 
 
 COARSE_SCAN = ScanConfig(level=4, detail_level=3, theta_step_deg=8.0, rank_margin=0.15)
@@ -335,47 +338,12 @@ wins. Level 4's peaks lie up to half its pixel (7 mm) off, so a striped print ca
 stripe off at a score above the found threshold yet well below its true pose's."""
 
 
-def locate_in_features(
-    model: PhotoModel | PreparedModel,
-    features: StereoFeatures,
-    *,
-    space: SearchSpace | None = None,
-    rng: int | np.random.Generator | None = None,
-    min_score: float | None = None,
-    t0: float | None = None,
-    retries: int = 1,
-    scan: ScanResult | None = None,
-    second_look: bool = False,
-    pyramid: PyramidConfig | None = None,
-    coarse_scan: ScanConfig | None = COARSE_SCAN,
-    seeds: Sequence[NDArray[np.float64]] | None = None,
-    coarse_min_score: float = COARSE_MIN_SCORE,
-    coarse: ScanResult | None = None,
-) -> LocateResult:
-    """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
+@dataclass(frozen=True)
+class LocateSettings:
+    """How :func:`locate_in_features` searches (its tuning, the same for every pair).
 
-    Computing :class:`~photomodel.fitness.StereoFeatures` once and calling this for several
-    models shares the image conversion and pyramids between them (``identify``). A model's
-    first stereo pair with a rig and search box also prepares the model for them
-    (:func:`~photomodel.locate.prepare_model`: its samples at every level and camera blur,
-    its scans' kernels), so that no later pair pays for them.
-
-    Parameters
+    Attributes
     ----------
-    model : PhotoModel
-    features : StereoFeatures
-        Both images' feature pyramids and the rig.
-    space : SearchSpace, optional
-        Defaults to the paper's experiment, the tilt measured from the table that faces the
-        rig (as in :func:`locate`).
-    rng : int, Generator or None
-        Seed of the stochastic search.
-    min_score : float, optional
-        Score in [0, 1] from which the garment counts as found (default: the calibrated
-        threshold, :func:`~photomodel.locate.load_threshold`).
-    t0 : float, optional
-        ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
-        from it.
     retries : int
         The first search starts from the peaks of
         :func:`~photomodel.fitness.scan_flat_poses`. The scan sees the garment as lit at the
@@ -389,101 +357,193 @@ def locate_in_features(
         after a trusted scan, the first retry also starts from the relit scan's peaks (an
         overexposed print can keep a wrong peak above ``trusted_score``). A scene without
         the garment costs ``1 + retries`` searches (one more after a trusted coarse scan).
+    pyramid : PyramidConfig
+        Settings of the coarse-to-fine search; a retry runs their
+        :meth:`~photomodel.search.PyramidConfig.for_retry`.
+    coarse_scan : ScanConfig or None
+        Before all this, a cheaper scan (default :data:`COARSE_SCAN`, level 4, when the
+        features have it; relit when it is not trusted and its ``relight`` allows); when it
+        is trusted, a search from its peaks comes first, and when that scores at least
+        ``min_score`` and ``coarse_min_score`` it is the result. Otherwise the above
+        follows, and the result is the best of every search. None: no coarse scan.
+    coarse_min_score : float
+        The score from which the coarse scan's search ends the work (default
+        :data:`COARSE_MIN_SCORE`; a garment partly under others scores less in full truth).
+    """
+
+    retries: int = 1
+    pyramid: PyramidConfig = field(default_factory=PyramidConfig)
+    coarse_scan: ScanConfig | None = COARSE_SCAN
+    coarse_min_score: float = COARSE_MIN_SCORE
+
+    def __post_init__(self) -> None:
+        if self.retries < 0:
+            raise ValueError(f"retries: expected >= 0, got {self.retries}")
+
+
+def locate_in_features(
+    model: PhotoModel | PreparedModel,
+    features: StereoFeatures,
+    *,
+    space: SearchSpace | None = None,
+    rng: int | np.random.Generator | None = None,
+    min_score: float | None = None,
+    t0: float | None = None,
+    settings: LocateSettings | None = None,
+    scan: ScanResult | None = None,
+    coarse: ScanResult | None = None,
+    second_look: bool = False,
+    seeds: Sequence[NDArray[np.float64]] | None = None,
+) -> LocateResult:
+    """Locate ``model`` with the ``soft`` method in a stereo pair already turned into features.
+
+    Computing :class:`~photomodel.fitness.StereoFeatures` once and calling this for several
+    models shares the image conversion and pyramids between them (``identify``). A model's
+    first stereo pair with a rig and search box also prepares the model for them
+    (:func:`~photomodel.locate.prepare_model`: its samples at every level and camera blur,
+    its scans' kernels), so that no later pair pays for them. The stages: the coarse scan
+    and a search from its peaks, then, unless that scored enough, the full scan and its
+    searches (:class:`LocateSettings` says how).
+
+    Parameters
+    ----------
+    model : PhotoModel or PreparedModel
+    features : StereoFeatures
+        Both images' feature pyramids and the rig.
+    space : SearchSpace, optional
+        Defaults to the paper's experiment, the tilt measured from the table that faces the
+        rig (as in :func:`locate`).
+    rng : int, Generator or None
+        Seed of the stochastic search.
+    min_score : float, optional
+        Score in [0, 1] from which the garment counts as found (default: the calibrated
+        threshold, :func:`~photomodel.locate.load_threshold`).
+    t0 : float, optional
+        ``time.perf_counter()`` at which the work began (default: now); ``seconds`` counts
+        from it.
+    settings : LocateSettings, optional
+        How it searches (default ``LocateSettings()``).
     scan : ScanResult, optional
         This model's :func:`~photomodel.fitness.scan_flat_poses` of ``features`` with
         ``space``'s bounds, when the caller has it already (it is deterministic; an
         untrusted one is relit here). No coarse scan runs then.
+    coarse : ScanResult, optional
+        This model's scan of ``features`` with the settings' ``coarse_scan`` and ``space``'s
+        bounds, when the caller has it already (``identify`` scans its candidates to order
+        them).
     second_look : bool
         The caller searched once already (``identify``'s second look): every search runs the
         retry configuration.
-    pyramid : PyramidConfig, optional
-        Settings of the coarse-to-fine search (default ``PyramidConfig()``); a retry runs
-        their :meth:`~photomodel.search.PyramidConfig.for_retry`.
-    coarse_scan : ScanConfig or None
-        Before all this, a cheaper scan (default :data:`COARSE_SCAN`, level 4, when the
-        features have it; relit when it is not trusted and its ``relight`` allows); when it
-        is trusted, a search from its peaks comes first, and
-        when that scores at least ``min_score`` and :data:`COARSE_MIN_SCORE` it is the
-        result. Otherwise the above follows, and the result is the best of every search.
-        None: no coarse scan.
     seeds : sequence of ndarray (6,), optional
-        Pose vectors near the answer (a tracker's last pose): one search from these, at
-        ``pyramid``'s coarse level, and no scan.
-    coarse_min_score : float
-        The score from which the coarse scan's search ends the work (default
-        :data:`COARSE_MIN_SCORE`; a garment partly under others scores less in full truth).
-    coarse : ScanResult, optional
-        This model's scan of ``features`` with ``coarse_scan`` and ``space``'s bounds, when
-        the caller has it already (``identify`` scans its candidates to order them).
+        Pose vectors near the answer (a tracker's last pose): one search from these, at the
+        pyramid's coarse level, and no scan.
 
     Returns
     -------
     LocateResult
     """
-    from photomodel.search import PyramidResult, pyramid_search
-
     t0 = time.perf_counter() if t0 is None else t0
     model = as_prepared(model)
-    if retries < 0:
-        raise ValueError(f"retries: expected >= 0, got {retries}")
     if min_score is None:
         min_score = load_threshold().min_score
-    gen = np.random.default_rng(rng)
-    space = space or SearchSpace.from_ranges(R_cam1_plane=features.rig.R_cam1_facing)
-    config = pyramid or PyramidConfig()
-    prepare_model(model, features, space=space, pyramid=config,      # seeds: no scan
+    run = _Search(model, features, space or SearchSpace.from_ranges(
+        R_cam1_plane=features.rig.R_cam1_facing), settings or LocateSettings(),
+        np.random.default_rng(rng), second_look)
+    prepare_model(model, features, space=run.space, pyramid=run.settings.pyramid,
                   scans=() if seeds is not None else (None if scan is not None
-                                                      else coarse_scan, ScanConfig()))
-    attempts: list[tuple[PyramidResult, ScoreTerms]] = []
-
-    @functools.cache
-    def fitness_at(level: int, weight: float, blur: float) -> SoftFitness:
-        """One fitness object per (level, palette weight, blur) for every search and score
-        of this pair."""
-        return SoftFitness(model, features, level, palette_weight=weight, optics_blur_mm=blur)
-
-    def search(seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> None:
-        attempt = pyramid_search(fitness_at, space, settings, rng=gen, seeds=seeds,
-                                 R_cam1_facing=features.rig.R_cam1_facing)
-        terms = score_terms(fitness_at(0, 0.0, attempt.optics_blur_mm), _affine(attempt))
-        attempts.append((attempt, terms))
-
+                                                      else run.settings.coarse_scan,
+                                                      ScanConfig()))
     if seeds is not None:
-        search([np.asarray(s, dtype=np.float64) for s in seeds], config)
-    elif scan is None and coarse_scan is not None and coarse_scan.level < features.levels:
-        first = coarse or scan_flat_poses(model, features, space.lower, space.upper,
-                                          coarse_scan)
-        if not first.trusted and coarse_scan.relight:
-            first = relight_scan(model, features, space.lower, space.upper, coarse_scan,
-                                 keep=first) or first
-        if first.trusted and not second_look:
-            search(list(first.poses), config)
-    if seeds is None and (not attempts
-                          or attempts[-1][1].score < max(min_score, coarse_min_score)):
+        run.search([np.asarray(s, dtype=np.float64) for s in seeds], run.settings.pyramid)
+    else:
         if scan is None:
-            scan = scan_flat_poses(model, features, space.lower, space.upper)
+            run.coarse_stage(coarse)
+        if not run.attempts or run.best_score() < max(min_score,
+                                                      run.settings.coarse_min_score):
+            run.full_stage(scan, min_score)
+    return run.result(model.name, min_score, t0)
+
+
+class _Search:
+    """The searches of one :func:`locate_in_features` call and their results."""
+
+    def __init__(self, model: PreparedModel, features: StereoFeatures, space: SearchSpace,
+                 settings: LocateSettings, gen: np.random.Generator, second_look: bool
+                 ) -> None:
+        self.model, self.features, self.space = model, features, space
+        self.settings, self.gen, self.second_look = settings, gen, second_look
+        self.attempts: list[tuple[Any, ScoreTerms]] = []
+        # one fitness object per (level, palette weight, blur) for every search and score
+        self.fitness_at = functools.cache(
+            lambda level, weight, blur: SoftFitness(model, features, level,
+                                                    palette_weight=weight,
+                                                    optics_blur_mm=blur))
+
+    def search(self, seeds: list[NDArray[np.float64]], settings: PyramidConfig) -> None:
+        """One coarse-to-fine search from ``seeds``, scored at level 0."""
+        from photomodel.search import pyramid_search
+
+        attempt = pyramid_search(self.fitness_at, self.space, settings, rng=self.gen,
+                                 seeds=seeds, R_cam1_facing=self.features.rig.R_cam1_facing)
+        terms = score_terms(self.fitness_at(0, 0.0, attempt.optics_blur_mm), _affine(attempt))
+        self.attempts.append((attempt, terms))
+
+    def best_score(self) -> float:
+        return max(a[1].score for a in self.attempts)
+
+    def _scan(self, config: ScanConfig | None = None) -> ScanResult:
+        lower, upper = self.space.lower, self.space.upper
+        return (scan_flat_poses(self.model, self.features, lower, upper, config)
+                if config is not None else scan_flat_poses(self.model, self.features, lower,
+                                                           upper))
+
+    def coarse_stage(self, coarse: ScanResult | None) -> None:
+        """The coarse scan (given, or made), relit when not trusted, and a search from its
+        peaks when it is trusted (not on a second look)."""
+        config = self.settings.coarse_scan
+        if config is None or config.level >= self.features.levels:
+            return
+        first = coarse or self._scan(config)
+        if not first.trusted and config.relight:
+            first = relight_scan(self.model, self.features, self.space.lower,
+                                 self.space.upper, config, keep=first) or first
+        if first.trusted and not self.second_look:
+            self.search(list(first.poses), self.settings.pyramid)
+
+    def full_stage(self, scan: ScanResult | None, min_score: float) -> None:
+        """Level 3's scan (relit when not trusted) and searches from its peaks, again with
+        the retry configuration while the best score is under ``min_score``."""
+        config = self.settings.pyramid
+        scan = scan or self._scan()
         relit = not scan.trusted
         if relit:
-            scan = relight_scan(model, features, space.lower, space.upper, keep=scan) or scan
+            scan = relight_scan(self.model, self.features, self.space.lower, self.space.upper,
+                                keep=scan) or scan
         if not scan.trusted:
             config = replace(config, ga_with_seeds=True)
         seeds = list(scan.poses)
         searches = 0
-        while searches <= retries and (searches == 0
-                                       or max(a[1].score for a in attempts) < min_score):
+        while searches <= self.settings.retries and (searches == 0
+                                                     or self.best_score() < min_score):
             if searches == 1 and not relit:  # a trusted scan's peaks missed: relight them too
-                again = relight_scan(model, features, space.lower, space.upper)
+                again = relight_scan(self.model, self.features, self.space.lower,
+                                     self.space.upper)
                 seeds = [*(again.poses if again is not None else []), *seeds]
-            search(seeds, config if searches == 0 and not second_look else config.for_retry())
+            self.search(seeds, config if searches == 0 and not self.second_look
+                        else config.for_retry())
             searches += 1
-    best, terms = max(attempts, key=lambda a: a[1].score)
-    if len(attempts) > 1:
-        best = replace(best, evaluations=sum(a[0].evaluations for a in attempts),
-                       stop_reason=f"best of {len(attempts)} searches: {best.stop_reason}")
-    T = pose_vectors_to_matrices(best.x)[0]
-    return LocateResult(model.name, bool(terms.score >= min_score), T, float(best.fitness),
-                        terms.score, time.perf_counter() - t0, best, terms.edge_evidence,
-                        terms.visible_outline)
+
+    def result(self, name: str, min_score: float, t0: float) -> LocateResult:
+        """The best attempt as a :class:`LocateResult`."""
+        best, terms = max(self.attempts, key=lambda a: a[1].score)
+        if len(self.attempts) > 1:
+            best = replace(best, evaluations=sum(a[0].evaluations for a in self.attempts),
+                           stop_reason=f"best of {len(self.attempts)} searches: "
+                                       f"{best.stop_reason}")
+        T = pose_vectors_to_matrices(best.x)[0]
+        return LocateResult(name, bool(terms.score >= min_score), T, float(best.fitness),
+                            terms.score, time.perf_counter() - t0, best, terms.edge_evidence,
+                            terms.visible_outline)
 
 
 def _affine(search: SearchResult) -> NDArray[np.float64]:

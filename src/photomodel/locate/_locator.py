@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -17,16 +18,17 @@ from photomodel.geometry import eps_from_rotation
 from photomodel.locate._locate import (
     COARSE_SCAN,
     LocateResult,
+    LocateSettings,
     Method,
-    locate,
     locate_in_features,
+    locate_paper,
     paper_method,
 )
 from photomodel.locate._prepare import prepare_model
 from photomodel.locate._scale import locate_unknown_scale
 from photomodel.locate._threshold import load_threshold
 from photomodel.model import PhotoModel, resampled_model, scale_known
-from photomodel.search import PyramidConfig, SearchSpace
+from photomodel.search import Optimizer, PyramidConfig, SearchSpace
 
 __all__ = ["Locator"]
 
@@ -70,9 +72,12 @@ class Locator:
     >>> result.found, result.position_mm                   # doctest: +SKIP
     """
 
-    def __init__(self, model: PhotoModel, rig: StereoRig, space: SearchSpace | None = None,
-                 method: Method = "default", *, min_score: float | None = None,
+    def __init__(self, model: PhotoModel | PreparedModel, rig: StereoRig,
+                 space: SearchSpace | None = None, method: Method = "default", *,
+                 min_score: float | None = None,
                  threshold: str | os.PathLike[str] | None = None) -> None:
+        prepared = model if isinstance(model, PreparedModel) else None
+        model = prepared.model if prepared is not None else model
         if not isinstance(model, PhotoModel):
             raise TypeError(f"model: expected a PhotoModel, got {type(model).__name__}")
         if not isinstance(rig, StereoRig):
@@ -92,7 +97,7 @@ class Locator:
         self.min_score = float(min_score)
         if self.nominal is not None and self._paper is not None:
             raise ValueError("method: a model of unknown scale needs the default method")
-        self.prepared = PreparedModel(model)
+        self.prepared = prepared or PreparedModel(model)
         if self._paper is None and self.nominal is None:
             self._prepare()
 
@@ -113,7 +118,8 @@ class Locator:
 
     def __call__(self, right_bgr: NDArray[np.uint8], left_bgr: NDArray[np.uint8],
                  rng: int | np.random.Generator | None = None, *,
-                 start: NDArray[np.float64] | None = None) -> LocateResult:
+                 start: NDArray[np.float64] | None = None,
+                 progress: Callable[[Optimizer], None] | None = None) -> LocateResult:
         """The pose of the model in one stereo pair.
 
         Parameters
@@ -126,22 +132,23 @@ class Locator:
             A pose ``T_cam1_model`` (mm) near the answer, e.g. the last frame's: the search
             starts there instead of scanning the whole box (default method only); the
             caller falls back to a full search when the result is not found.
+        progress : callable, optional
+            Called with the optimiser after each generation (paper methods: a progress
+            bar).
 
         Returns
         -------
         LocateResult
         """
-        if self.nominal is not None:
-            t0 = time.perf_counter()
-            return self.locate_features(StereoFeatures(self.rig, right_bgr, left_bgr), rng,
-                                        start=start, t0=t0)
-        if start is None or self._paper is not None:
+        self.rig.cam1.check_image(right_bgr, "right image")
+        self.rig.cam2.check_image(left_bgr, "left image")
+        t0 = time.perf_counter()
+        if self._paper is not None:
             if start is not None:
                 raise ValueError("start: a start pose needs the default method")
-            return locate(self.prepared, self.rig, right_bgr, left_bgr,
-                          method=self._paper or "default", rng=rng, space=self.space,
-                          min_score=self.min_score)
-        t0 = time.perf_counter()
+            return locate_paper(self.model, self.rig, right_bgr, left_bgr, self._paper,
+                                space=self.space, min_score=self.min_score, rng=rng,
+                                progress=progress, t0=t0)
         features = StereoFeatures(self.rig, right_bgr, left_bgr)
         return self.locate_features(features, rng, start=start, t0=t0)
 
@@ -151,7 +158,7 @@ class Locator:
                         ) -> LocateResult:
         """The default method on a stereo pair already turned into features (shared by
         several models: :class:`~photomodel.Identifier`). ``options`` are those of
-        :func:`~photomodel.locate.locate_in_features` (``scan``, ``retries``,
+        :func:`~photomodel.locate.locate_in_features` (``settings``, ``scan``,
         ``second_look``, ``t0``, ``min_score``)."""
         if self._paper is not None:
             raise ValueError("locate_features: the paper's method works on images, not "
@@ -172,8 +179,9 @@ class Locator:
                 raise InputError("start", f"expected a finite 4 x 4 pose, got shape {T.shape}")
             x0 = np.concatenate([T[:3, 3], eps_from_rotation(T[:3, :3])])
             seed = self.space.clip(x0[None])[0]
-            options.update(retries=0, coarse_scan=None,
-                           pyramid=replace(PyramidConfig(), coarse_level=2), seeds=[seed])
+            options.update(settings=LocateSettings(
+                retries=0, coarse_scan=None, pyramid=replace(PyramidConfig(), coarse_level=2)),
+                seeds=[seed])
         result = locate_in_features(self.prepared, features, space=self.space, rng=rng,
                                     **options)
         return result if self.scale is None else replace(result, scale=self.scale)

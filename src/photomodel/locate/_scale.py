@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from photomodel.fitness import PreparedModel, StereoFeatures, scene_regions
-from photomodel.locate._locate import LocateResult, locate_in_features
+from photomodel.locate._locate import LocateResult, LocateSettings, locate_in_features
 from photomodel.model import MAX_SCALE, PhotoModel, describe_model, resampled_model
 from photomodel.search import GaussNewtonConfig, PyramidConfig, SearchSpace
 
@@ -101,8 +101,9 @@ def locate_unknown_scale(
             trial = PreparedModel(resampled_model(model, scale))
             result = locate_in_features(trial, features, space=space, rng=gen,
                                         min_score=min_score, seeds=seeds,
-                                        pyramid=FREE_SCALE,
-                                        retries=0 if seeds is not None else 1)
+                                        settings=LocateSettings(
+                                            retries=0 if seeds is not None else 1,
+                                            pyramid=FREE_SCALE))
             strain = result.strain
             if strain is None or not result.found:
                 break
