@@ -31,7 +31,6 @@ from starlette.types import ASGIApp, Message, Scope
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
 from photomodel.service._guard import Guard, drain
-from photomodel.service._register import register_from_camera, register_in_place, set_scale
 from photomodel.service._source import SourceError
 from photomodel.service._track_socket import track_endpoint
 
@@ -233,6 +232,40 @@ _STATIC_TYPES = {"app.js": "text/javascript; charset=utf-8",
                  "style.css": "text/css; charset=utf-8"}
 
 
+def _exception_handlers(limit: int) -> dict[Any, Callable[..., Any]]:
+    """Every error as a JSON answer: the library's errors by kind (400, 404, 409, 503 with
+    ``Retry-After``), Starlette's, 413 over ``limit`` bytes, 400 for a client gone, 500."""
+
+    async def on_photomodel_error(request: Request, exc: Exception) -> Response:
+        status = _STATUS.get(type(exc), 400)
+        headers = {"Retry-After": "5"} if status == 503 else None
+        return _error(status, str(exc), headers)
+
+    async def on_http(request: Request, exc: Exception) -> Response:
+        assert isinstance(exc, HTTPException)
+        return _error(exc.status_code, exc.detail, dict(exc.headers or {}))
+
+    async def on_too_large(request: Request, exc: Exception) -> Response:
+        return _error(413, f"request body larger than the {limit >> 20} MiB this service "
+                           "accepts (--max-upload-mb)")
+
+    async def on_disconnect(request: Request, exc: Exception) -> Response:
+        return _error(400, "the client closed the connection before the body was sent")
+
+    async def on_internal(request: Request, exc: Exception) -> Response:
+        return _error(500, "internal error (see the service's log)")
+
+    return {PhotomodelError: on_photomodel_error, HTTPException: on_http,
+            _TooLarge: on_too_large, ClientDisconnect: on_disconnect, Exception: on_internal}
+
+
+def _library_routes(cell: CellService, work: Callable[..., Any], limit: int) -> list[Route]:
+    """``/models`` and ``/results`` (imported here: that module uses this one's helpers)."""
+    from photomodel.service._library_routes import library_routes
+
+    return library_routes(cell, work, limit)
+
+
 def _source_routes(cell: CellService, work: Callable[..., Any]) -> list[Route]:
     """The camera source's routes (imported here: that module uses this one's helpers)."""
     from photomodel.service._trigger import trigger_routes
@@ -274,9 +307,6 @@ def create_app(cell: CellService, *, warm: bool = True,
             finally:
                 metrics.in_flight.dec()
 
-    # the searches are bounded by ``limiter`` above; the thread pool itself must not be
-    limiter_unbounded = anyio.CapacityLimiter(64)
-
     async def index(request: Request) -> Response:
         return Response(page, media_type="text/html; charset=utf-8",
                         headers={"Cache-Control": "no-store"})
@@ -290,98 +320,11 @@ def create_app(cell: CellService, *, warm: bool = True,
     async def health(request: Request) -> Response:
         return _JSON(cell.health())
 
-    rendered: list[Any] = [None, b""]     # the summaries last rendered and their JSON
-
-    def models_json() -> bytes:
-        summaries = cell.models()             # the same list until the library changes
-        made_for, body = rendered
-        if made_for is not summaries:
-            body = _JSON(summaries).body
-            rendered[:] = [summaries, body]
-        return body
-
-    async def list_models(request: Request) -> Response:
-        # a catalogue's list takes a while to render once: not on the event loop
-        body = await anyio.to_thread.run_sync(models_json, limiter=limiter_unbounded)
-        return Response(body, media_type="application/json")
-
-    async def add_model(request: Request) -> Response:
-        form = await _form(request, limit)
-        name = _field(form, "name", required=True)
-        replace = _bool(form, "replace")
-        source = _field(form, "source")
-        if source is not None:                   # the garment where the cameras see it
-            if source != "camera":
-                raise InputError("source", f"expected 'camera', got {source!r}")
-            summary = await work(register_from_camera, cell, name, replace=replace)
-        elif form.get("right") is not None or form.get("left") is not None:
-            views = [await _file(form, f) for f in ("right", "left")]
-            empty = [await _file(form, f) if form.get(f) is not None else None
-                     for f in ("empty_right", "empty_left")]
-            summary = await work(register_in_place, cell, name, *views, *empty,
-                                 replace=replace)
-        else:
-            photo, background = await _file(form, "photo"), await _file(form, "background")
-            summary = await work(cell.register, name, photo, background,
-                                 _float(form, "distance_mm"), replace=replace)
-        return _JSON(summary, status_code=201)
-
-    async def model_scale(request: Request) -> Response:
-        form = await _form(request, limit)
-        summary = await work(set_scale, cell, request.path_params["name"],
-                             factor=_float(form, "factor"), result_id=_field(form, "result"))
-        return _JSON(summary)
-
-    async def delete_model(request: Request) -> Response:
-        return _JSON(await work(cell.remove, request.path_params["name"]))
-
-    async def preview(request: Request) -> Response:
-        png = await work(cell.preview_png, request.path_params["name"])
-        return Response(png, media_type="image/png")
-
-    async def results(request: Request) -> Response:
-        return _JSON(cell.results.recent(20))
-
-    async def result(request: Request) -> Response:
-        found = cell.results.get(request.path_params["id"])
-        if found is None:
-            raise NotFound("result", f"no result {request.path_params['id']!r} (only the "
-                                     f"last {cell.results.size} are kept)")
-        return _JSON(found.answer)
-
-    async def overlay(request: Request) -> Response:
-        rid = request.path_params["id"]
-        png = await anyio.to_thread.run_sync(cell.results.overlay_png, rid,
-                                             limiter=limiter_unbounded)
-        if png is None:
-            raise NotFound("result", f"no result {rid!r} (only the last "
-                                     f"{cell.results.size} are kept)")
-        return Response(png, media_type="image/png")
-
     async def stats(request: Request) -> Response:
         return _JSON({"latency": cell.latencies.summary(), "health": cell.health()})
 
     async def prometheus(request: Request) -> Response:
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
-
-    async def on_photomodel_error(request: Request, exc: Exception) -> Response:
-        status = _STATUS.get(type(exc), 400)
-        headers = {"Retry-After": "5"} if status == 503 else None
-        return _error(status, str(exc), headers)
-
-    async def on_http(request: Request, exc: Exception) -> Response:
-        assert isinstance(exc, HTTPException)
-        return _error(exc.status_code, exc.detail, dict(exc.headers or {}))
-
-    async def on_too_large(request: Request, exc: Exception) -> Response:
-        return _error(413, f"request body larger than the {limit >> 20} MiB this service "
-                           "accepts (--max-upload-mb)")
-
-    async def on_disconnect(request: Request, exc: Exception) -> Response:
-        return _error(400, "the client closed the connection before the body was sent")
-
-    async def on_internal(request: Request, exc: Exception) -> Response:
-        return _error(500, "internal error (see the service's log)")
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
@@ -397,21 +340,13 @@ def create_app(cell: CellService, *, warm: bool = True,
         Route("/", index),
         Route("/static/{name}", static),
         Route("/health", health),
-        Route("/models", list_models, methods=["GET"]),
-        Route("/models", add_model, methods=["POST"]),
-        Route("/models/{name}", delete_model, methods=["DELETE"]),
-        Route("/models/{name}/scale", model_scale, methods=["POST"]),
-        Route("/models/{name}/preview.png", preview),
-        Route("/results", results),
-        Route("/results/{id}", result),
-        Route("/results/{id}/overlay.png", overlay),
         Route("/stats", stats),
         Route("/metrics", prometheus),
         WebSocketRoute("/track", track_endpoint(cell, metrics.registry, _finite)),
-    ] + _pair_routes(cell, work, limit) + _source_routes(cell, work)
-    app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
-        PhotomodelError: on_photomodel_error, HTTPException: on_http, _TooLarge: on_too_large,
-        ClientDisconnect: on_disconnect, Exception: on_internal})
+    ] + _library_routes(cell, work, limit) + _pair_routes(cell, work, limit) \
+        + _source_routes(cell, work)
+    app = Starlette(routes=routes, lifespan=lifespan,
+                    exception_handlers=_exception_handlers(limit))
     app.state.cell = cell
 
     def observe(scope: Scope, status: int, seconds: float) -> None:
