@@ -40,7 +40,18 @@ def test_frames_are_detected_then_tracked_with_a_stamped_pose(service, cell_data
     assert len(answers[-1]["T_cam1_model"]) == 4
 
 
-def test_the_newest_frame_wins_and_drops_are_counted(service, cell_data) -> None:
+def test_the_newest_frame_wins_and_drops_are_counted(service, cell_data, monkeypatch) -> None:
+    import time
+
+    from photomodel.track import Tracker
+
+    track = Tracker.__call__
+
+    def slow(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        time.sleep(0.05)              # slower than the client sends, however loaded the CPU
+        return track(self, *args, **kwargs)
+
+    monkeypatch.setattr(Tracker, "__call__", slow)
     right, left = _pair(cell_data)
     sent = 12
     with _ws(service) as ws:
