@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from photomodel._files import append_lines, locked, write_atomic
+from photomodel._files import append_lines, locked, write_atomic, write_atomic_with
 
 
 def _others(folder: Path, *keep: str) -> list[str]:
@@ -64,6 +64,49 @@ def test_write_atomic_gives_a_replaced_private_file_its_mode(tmp_path: Path) -> 
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
 
 
+def test_write_atomic_with_hands_a_temporary_path_with_the_suffix(tmp_path: Path) -> None:
+    """The writer gets a hidden path beside the file that ends in the file's suffix (the
+    library picks the format from it); what it wrote replaces the file."""
+    path = tmp_path / "stereo.yaml"
+    path.write_text("old")
+    seen: list[Path] = []
+
+    def write(tmp: Path) -> None:
+        seen.append(tmp)
+        tmp.write_text("new")
+
+    write_atomic_with(path, write)
+    assert path.read_text() == "new"
+    assert seen[0].parent == tmp_path and seen[0].name.startswith(".stereo.tmp-")
+    assert seen[0].suffix == ".yaml"
+    assert _others(tmp_path, "stereo.yaml") == []
+
+
+def test_write_atomic_with_keeps_the_old_file_when_the_writer_fails(tmp_path: Path) -> None:
+    """A writer that fails half-way: its error comes through, the old file is kept and the
+    half-written temporary file is removed."""
+    path = tmp_path / "plot.png"
+    path.write_bytes(b"old")
+
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError, match="disk full"):
+        write_atomic_with(path, write, fsync=False)
+    assert path.read_bytes() == b"old"
+    assert _others(tmp_path, "plot.png") == []
+
+
+def test_write_atomic_with_refuses_a_writer_that_wrote_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "plot.png"
+    path.write_bytes(b"old")
+    with pytest.raises(FileNotFoundError, match="nothing was written"):
+        write_atomic_with(path, lambda tmp: None)
+    assert path.read_bytes() == b"old"
+    assert _others(tmp_path, "plot.png") == []
+
+
 def test_append_lines_appends_whole_lines_in_order(tmp_path: Path) -> None:
     path = tmp_path / "log.jsonl"
     append_lines(path, [b"one", b"two"], fsync=False)
@@ -92,6 +135,32 @@ def test_append_lines_drops_a_file_that_is_all_torn_line(tmp_path: Path) -> None
     path.write_bytes(b"no line break at all")
     append_lines(path, [b"whole"])
     assert path.read_bytes() == b"whole\n"
+
+
+@pytest.mark.parametrize("before", [None, b"", b"col_a,co"])
+def test_append_lines_writes_the_header_to_a_file_without_a_whole_line(
+        tmp_path: Path, before: bytes | None) -> None:
+    """New, empty, or holding only a header cut short: the header comes first, once."""
+    path = tmp_path / "records.csv"
+    if before is not None:
+        path.write_bytes(before)
+    append_lines(path, [b"1,2"], header=b"col_a,col_b")
+    append_lines(path, [b"3,4"], header=b"col_a,col_b")
+    assert path.read_bytes() == b"col_a,col_b\n1,2\n3,4\n"
+
+
+def test_append_lines_keeps_the_header_when_a_row_is_cut_short(tmp_path: Path) -> None:
+    path = tmp_path / "records.csv"
+    path.write_bytes(b"col_a,col_b\r\n1,2\r\n3,")
+    append_lines(path, [b"5,6"], header=b"col_a,col_b")
+    assert path.read_bytes() == b"col_a,col_b\r\n1,2\r\n5,6\n"
+
+
+def test_append_lines_refuses_a_header_with_a_line_break(tmp_path: Path) -> None:
+    path = tmp_path / "records.csv"
+    with pytest.raises(ValueError, match="line break"):
+        append_lines(path, [b"1"], header=b"a\nb")
+    assert not path.exists()
 
 
 def test_append_lines_creates_a_file_with_its_mode(tmp_path: Path) -> None:

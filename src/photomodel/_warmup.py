@@ -146,17 +146,19 @@ def _draw(camera: PinholeCamera, R: NDArray[np.float64], t: NDArray[np.float64],
 def make_scene() -> Scene:
     """The synthetic garment's photo-model and a stereo pair of it at about 680 mm."""
     from photomodel.camera import PinholeCamera, StereoRig
-    from photomodel.model import build_photo_model
+    from photomodel.model import DEFAULT_STATION_DISTANCE_MM, build_photo_model
 
     def camera(f: float, dist: list[float]) -> PinholeCamera:
         K = np.array([[f, 0.0, 320.5], [0.0, f, 240.5], [0.0, 0.0, 1.0]])
         return PinholeCamera(K, np.array(dist), 640, 480)
 
     station = camera(760.0, [-0.12, 0.08, 0.0005, -0.0004, 0.0])
-    photo = _draw(station, np.eye(3), np.array([0.0, 0.0, 400.0]), _GREEN_BGR)
+    photo = _draw(station, np.eye(3), np.array([0.0, 0.0, DEFAULT_STATION_DISTANCE_MM]),
+                  _GREEN_BGR)
     background = np.empty_like(photo)
     background[:] = _GREEN_BGR
-    model = build_photo_model(photo, background, station, 400.0, name="warmup").model
+    model = build_photo_model(photo, background, station, DEFAULT_STATION_DISTANCE_MM,
+                              name="warmup").model
     cam1 = camera(800.0, [-0.15, 0.06, 0.0011, -0.0008, 0.0])
     cam2 = camera(800.0, [-0.145, 0.058, -0.0009, 0.0012, 0.0])
     R21 = _rotation(1, np.deg2rad(10.0))

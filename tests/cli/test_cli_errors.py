@@ -1,9 +1,9 @@
 """The command line on real files: one clear error line for every bad input, and the happy path.
 
-DESIGN.md's error rule: a missing or unreadable file, a calibration without the needed keys,
-images whose size does not match the calibration, a photo with no garment in it give one line
-on stderr naming the file and the problem, a non-zero exit code (2), no traceback, and nothing
-half-written.
+The error rule (docs/contracts.md, "Command line", errors): a missing or unreadable file, a
+calibration without the needed keys, images whose size does not match the calibration, a photo
+with no garment in it give one line on stderr naming the file and the problem, a non-zero exit
+code (2), no traceback, and nothing half-written.
 """
 
 from __future__ import annotations

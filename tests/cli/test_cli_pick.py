@@ -1,7 +1,7 @@
 """``photomodel pick``, ``handeye`` and ``cell`` on real files: the plan, and clean errors.
 
-Errors follow DESIGN.md: one line on stderr naming the file or option and the problem, exit
-code 2, no traceback, nothing half-written.
+Errors follow docs/contracts.md ("Command line"): one line on stderr naming the file or option
+and the problem, exit code 2, no traceback, nothing half-written.
 """
 
 from __future__ import annotations

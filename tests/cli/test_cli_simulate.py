@@ -1,8 +1,8 @@
 """``photomodel simulate``: a real run, a user's own garment, and one clear line per bad input.
 
-DESIGN.md: errors give one line on stderr (``photomodel: error: ...``) naming the file or
-argument, exit code 2, no traceback, and nothing half-written (no dataset directory, no hidden
-build directory beside it, no contact sheet).
+docs/contracts.md ("Command line"): errors give one line on stderr (``photomodel: error:
+...``) naming the file or argument, exit code 2, no traceback, and nothing half-written (no
+dataset directory, no hidden build directory beside it, no contact sheet).
 """
 
 from __future__ import annotations

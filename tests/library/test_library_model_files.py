@@ -174,7 +174,7 @@ def test_add_refuses_a_file_name_that_another_model_holds(plain: Path) -> None:
 
 
 def test_leftover_model_temporaries_are_removed_by_the_next_writer(plain: Path) -> None:
-    for name in (".shirt.model.tmp", ".towel.npz.tmp", ".keep.tmp"):
+    for name in (".shirt.model.tmp", ".towel.npz.tmp", ".towel.npz.tmp-12-34", ".keep.tmp"):
         (plain / name).write_bytes(b"PK")
         os.utime(plain / name, (1e9, 1e9))
     ModelLibrary(plain).reindex()

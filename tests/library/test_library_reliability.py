@@ -170,8 +170,8 @@ def test_killing_add_at_random_moments_never_corrupts_or_loses(tmp_path: Path,
         assert reported <= {e.name for e in scan.entries}
         assert [s for s in scan.skipped if s.path.name == INDEX_NAME] == []
     # the library stays writable, and the next writer clears the dead ones' temporaries
-    for tmp in lib.glob(".*.npz.tmp"):
+    for tmp in lib.glob(".*.npz.tmp*"):
         old = time.time() - 120
         os.utime(tmp, (old, old))
     ModelLibrary(lib).add(model_file, "after")
-    assert not list(lib.glob(f".{INDEX_NAME}.tmp-*")) and not list(lib.glob(".*.npz.tmp"))
+    assert not list(lib.glob(f".{INDEX_NAME}.tmp-*")) and not list(lib.glob(".*.npz.tmp*"))

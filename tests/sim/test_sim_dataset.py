@@ -1,4 +1,5 @@
-"""write_dataset: the DESIGN.md layout, byte-identical reruns, additive seeds, clean failures."""
+"""write_dataset: the dataset layout of docs/contracts.md, byte-identical reruns, additive
+seeds, clean failures."""
 
 from __future__ import annotations
 
@@ -228,9 +229,10 @@ def test_failure_while_rendering_leaves_nothing_behind(tmp_path: Path) -> None:
 
 
 def test_failure_leaves_no_parent_directories_it_created(tmp_path: Path) -> None:
-    """Nothing half-written (DESIGN.md) includes the missing parents of ``out``: write_dataset
-    creates them for its hidden build directory (``tmp.mkdir(parents=True)``) and, on a failure,
-    removes only the build directory, leaving ``new/deeper/`` behind."""
+    """Nothing half-written (docs/contracts.md, "Command line", errors) includes the missing
+    parents of ``out``: write_dataset creates them for its hidden build directory
+    (``tmp.mkdir(parents=True)``) and, on a failure, removes only the build directory, leaving
+    ``new/deeper/`` behind."""
     with pytest.raises(ValueError, match="does not fit"):
         write_dataset(tmp_path / "new" / "deeper" / "out", [], ["paper"],
                       extra_garments={"huge": _user_garment(700)})

@@ -3,24 +3,15 @@
 One camera: ``cv2.calibrateCameraExtended`` over every view in which the board is found.
 Distortion: ``distortion=4`` (the default) fits k1 k2 p1 p2 with k3 fixed at 0 (written as
 the 5 coefficients of OpenCV's plumb-bob model), 5 fits k3 too, 8 is OpenCV's rational model.
-Fixing k3 is the default because it measured better: on ``photomodel simulate
---calibration-views 15`` (seed 1; the hand rig's k3 = 0, 15 views that leave the image's
-outer rim uncovered, as hand-held views do) the fitted distortion bends the whole image by at
-most 0.26 and 0.06 px (right, left) from the truth with k3 fixed, 0.67 and 0.90 px with k3
-free, and the model station's by 0.16 px against 2.5 px; inside the covered area (10 % in
-from each side) both are within 0.1 px, and the focal lengths, principal points and the
-stereo extrinsics are as close. A free k3 only extrapolates the rim from views that do not
-reach it; a lens that needs it (strong barrel distortion seen to the image's corners) is
-calibrated with ``distortion=5`` or 8.
+k3 is fixed by default because a free k3 extrapolates the image's rim badly from views that
+do not reach it (docs/method/calibrate.md); a lens with strong distortion seen to the image's
+corners takes ``distortion=5`` or 8.
 
 Two cameras: each camera's intrinsics from all of its own views, then
 ``cv2.stereoCalibrateExtended`` over the pairs in which both cameras found the board,
 starting from them and refining them with ``R``, ``T`` (``refine_intrinsics=False`` keeps
-them fixed, ``CALIB_FIX_INTRINSIC``). Refining is the default because it measured better:
-on ``simulate --calibration-views`` (seed 1, 15 pairs; seed 2, 20 pairs) ``T`` comes out
-0.05 and 0.02 mm from the truth refined, 0.28 and 0.36 mm fixed, the stereo rotation 0.03 and
-0.02 deg off refined (0.08 and 0.01 fixed), the principal points within 0.4 px refined,
-0.7 px fixed: the pairs' rig constraint pins down what each camera's own views leave loose.
+them fixed, ``CALIB_FIX_INTRINSIC``). Refining is the default: the pairs' rig constraint pins
+down what each camera's own views leave loose (docs/method/calibrate.md).
 Camera 1 is the right camera (the reference): ``X2 = R X1 + T``, ``T`` in mm, as the
 calibration file's contract says (docs/contracts.md).
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic
 from photomodel.calibrate._calibrate import CameraCalibration, StereoCalibration
 
 __all__ = ["coverage_png", "errors_png", "plot_paths", "write_plots"]
@@ -122,7 +123,5 @@ def write_plots(out: str | os.PathLike[str],
     paths = plot_paths(out)
     for path, data in zip(paths, pictures, strict=True):
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
+        write_atomic(path, data)
     return paths

@@ -18,12 +18,9 @@ from numpy.typing import NDArray
 from photomodel.calibrate._detect import Detection, find_corners
 from photomodel.calibrate._pattern import Target
 from photomodel.errors import InputError
-from photomodel.image import read_grey_image
+from photomodel.image import IMAGE_SUFFIXES, read_grey_image
 
 __all__ = ["IMAGE_SUFFIXES", "ViewCorners", "detect_views", "list_images", "list_pairs"]
-
-IMAGE_SUFFIXES = (".png", ".bmp", ".jpg", ".jpeg")
-"""Suffixes of the image files a calibration folder's views are read from."""
 
 _MAX_VIEWS = 1000
 

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic_with
 from photomodel._limits import (
     MAX_CALIBRATION_FILE_BYTES,
     MAX_DISTANCE_MM,
@@ -370,15 +371,19 @@ def load_stereo(path: str | os.PathLike[str]) -> StereoRig:
     return rig
 
 
-def _write_atomic(path: Path, write: Callable[[cv2.FileStorage], None]) -> None:
+def _write_file_storage(path: Path, write: Callable[[cv2.FileStorage], None]) -> None:
+    """Replace ``path`` with what ``write`` writes to a ``cv2.FileStorage`` (format from the
+    suffix), atomically (:func:`~photomodel._files.write_atomic_with`)."""
+
+    def storage(tmp: Path) -> None:
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+        try:
+            write(fs)
+        finally:
+            fs.release()
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
-    try:
-        write(fs)
-    finally:
-        fs.release()
-    os.replace(tmp, path)
+    write_atomic_with(path, storage)
 
 
 def save_camera(path: str | os.PathLike[str], camera: PinholeCamera,
@@ -394,7 +399,7 @@ def save_camera(path: str | os.PathLike[str], camera: PinholeCamera,
         if distance_mm is not None:
             fs.write("distance_mm", float(distance_mm))
 
-    _write_atomic(Path(path), write)
+    _write_file_storage(Path(path), write)
 
 
 def save_stereo(path: str | os.PathLike[str], rig: StereoRig) -> None:
@@ -411,4 +416,4 @@ def save_stereo(path: str | os.PathLike[str], rig: StereoRig) -> None:
         fs.write("R", rig.R)
         fs.write("T", rig.T.reshape(3, 1))
 
-    _write_atomic(Path(path), write)
+    _write_file_storage(Path(path), write)

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._files import write_atomic
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.locate import LocateResult, Locator, Method
@@ -104,15 +105,10 @@ def pick(model: PhotoModel | Locator, rig: StereoRig, right_bgr: NDArray[np.uint
 
 
 def write_json_atomic(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
-    """Write ``data`` as indented JSON through a temporary file and ``os.replace``."""
+    """Write ``data`` as indented JSON, atomically (:func:`~photomodel._files.write_atomic`)."""
     p = Path(path)
     if p.is_dir():
         raise InputError(p, "is a directory; give a file name")
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(f".{p.name}.tmp")
-    try:
-        tmp.write_text(json.dumps(data, indent=1) + "\n")
-        os.replace(tmp, p)
-    finally:
-        tmp.unlink(missing_ok=True)
+    write_atomic(p, (json.dumps(data, indent=1) + "\n").encode())
     return p

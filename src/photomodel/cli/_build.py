@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from photomodel.cli._options import add_stereo_options
 from photomodel.errors import InputError
 
 MODEL_SUFFIXES = (".npz", ".model")
@@ -18,7 +19,7 @@ _OPTIONS = {"step_mm": "--step-mm", "band_gap_mm": "--band-gap-mm",
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from photomodel.model._config import RANGES, BuildConfig
+    from photomodel.model._config import DEFAULT_STATION_DISTANCE_MM, RANGES, BuildConfig
 
     d = BuildConfig()
 
@@ -38,10 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--background", type=Path, help="the plane alone")
     p.add_argument("--camera", type=Path,
                    help="model camera calibration (OpenCV YAML/XML/JSON or ROS camera_info)")
-    p.add_argument("--stereo", type=Path,
-                   help="in place: the hand cameras' stereo calibration")
-    p.add_argument("--right", type=Path, help="in place: camera 1's image of the garment")
-    p.add_argument("--left", type=Path, help="in place: camera 2's image of the garment")
+    add_stereo_options(p, required=False, prefix="in place: ")
     p.add_argument("--empty-right", type=Path,
                    help="in place: camera 1's image of the table without the garment")
     p.add_argument("--empty-left", type=Path,
@@ -51,7 +49,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "scale (photomodel models set-scale stores it)")
     p.add_argument("--distance-mm", type=float, default=None,
                    help="camera-to-plane distance (default: the camera file's distance_mm, "
-                        "else 400)")
+                        f"else {DEFAULT_STATION_DISTANCE_MM:g})")
     p.add_argument("--out", required=True, type=Path,
                    help="model file to write, at exactly this path (e.g. shirt.model)")
     p.add_argument("--name", default=None,
@@ -141,12 +139,12 @@ def _station(args: argparse.Namespace, config: Any, name: str) -> tuple[Any, Any
     from photomodel.camera import load_camera, load_distance_mm
     from photomodel.cli._options import as_option_error
     from photomodel.image import read_color_image
-    from photomodel.model import build_photo_model
+    from photomodel.model import DEFAULT_STATION_DISTANCE_MM, build_photo_model
     from photomodel.model._build import MAX_DISTANCE_MM
 
     camera = load_camera(args.camera)
     distance = args.distance_mm if args.distance_mm is not None else load_distance_mm(args.camera)
-    distance = 400.0 if distance is None else distance
+    distance = DEFAULT_STATION_DISTANCE_MM if distance is None else distance
     if not (math.isfinite(distance) and 0 < distance <= MAX_DISTANCE_MM):
         raise InputError(args.camera, f"distance_mm: expected a distance above 0 to "
                                       f"{MAX_DISTANCE_MM:g} mm, got {distance:g}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from photomodel.cli._options import add_stereo_options
 from photomodel.robot import available_link_sets
 
 HAND_EYE_METHODS = ("andreff", "daniilidis", "horaud", "park", "tsai")
@@ -24,8 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "\"square_mm\": 25}}.")
     p.add_argument("--pairs", required=True, help="pairs file (JSON)")
     p.add_argument("--out", required=True, help="hand-eye file to write (.yaml, .xml, .json)")
-    p.add_argument("--stereo", default=None,
-                   help="stereo calibration (camera 1's intrinsics), for chessboard images")
+    add_stereo_options(p, pair=False, required=False, prefix="for chessboard images: ")
     p.add_argument("--method", choices=HAND_EYE_METHODS, default="park",
                    help="cv2.calibrateHandEye method (default park)")
     p.add_argument("--link-set", default=None, choices=available_link_sets(),

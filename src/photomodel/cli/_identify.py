@@ -8,6 +8,7 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from photomodel.cli._options import add_stereo_options, load_stereo_pair
 from photomodel.errors import InputError
 
 if TYPE_CHECKING:
@@ -24,9 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "view is reported beside it (label), with the model the library's label "
                     "map names for it and whether that agrees (photomodel models label).")
     p.add_argument("--models", required=True, type=Path, help="model library directory")
-    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration (K1, D1, ...)")
-    p.add_argument("--right", required=True, type=Path, help="camera 1 (right) image")
-    p.add_argument("--left", required=True, type=Path, help="camera 2 (left) image")
+    add_stereo_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the searches (default 0)")
     p.add_argument("--min-score", type=float, default=None,
@@ -42,11 +41,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from photomodel.camera import load_stereo
     from photomodel.cli._models import warn_skipped
     from photomodel.cli._options import check_float
     from photomodel.identify import Identifier, IdentifyConfig
-    from photomodel.image import read_color_image
     from photomodel.library import LOOKED_FOR, ModelLibrary
     from photomodel.locate import threshold_path
 
@@ -57,11 +54,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError("--min-score/--max-candidates", str(exc)) from None
     library = ModelLibrary(args.models)
-    rig = load_stereo(args.stereo)
-    right = read_color_image(args.right)
-    left = read_color_image(args.left)
-    rig.cam1.check_image(right, str(args.right))
-    rig.cam2.check_image(left, str(args.left))
+    rig, right, left = load_stereo_pair(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         identifier = Identifier(library, rig, config=config,

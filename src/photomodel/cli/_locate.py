@@ -8,12 +8,12 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from photomodel.cli._options import add_stereo_options, load_stereo_pair
 from photomodel.errors import InputError
 
 if TYPE_CHECKING:
     from photomodel.locate import LocateResult
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 PAPER_FITNESSES = ("balanced", "paper")
 """The fitnesses a paper method may search (``photomodel.fitness.FITNESS_PRESETS``' names; a
 test checks that they agree), written here so that ``--help`` loads no search code."""
@@ -24,9 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description="Search the pose T_cam1_model of a photo-model in the images "
                                    "of the hand's two cameras (camera 1 = right = reference).")
     p.add_argument("--model", required=True, type=Path, help="photo-model file")
-    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration (K1, D1, ...)")
-    p.add_argument("--right", required=True, type=Path, help="camera 1 (right) image")
-    p.add_argument("--left", required=True, type=Path, help="camera 2 (left) image")
+    add_stereo_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
     p.add_argument("--method", choices=("default", "paper"), default=None,
@@ -72,18 +70,14 @@ def run(args: argparse.Namespace) -> int:
         from photomodel.cli._options import check_float
 
         check_float("--min-score", args.min_score, 0.0, 1.0)
+    from photomodel.image import IMAGE_SUFFIXES
+
     if args.overlay is not None and args.overlay.suffix.lower() not in IMAGE_SUFFIXES:
         raise InputError(args.overlay, f"unknown image type; use one of {IMAGE_SUFFIXES}")
-    from photomodel.camera import load_stereo
-    from photomodel.image import read_color_image
     from photomodel.model import load_model
 
     model = load_model(args.model)
-    rig = load_stereo(args.stereo)
-    right = read_color_image(args.right)
-    left = read_color_image(args.left)
-    rig.cam1.check_image(right, str(args.right))
-    rig.cam2.check_image(left, str(args.left))
+    rig, right, left = load_stereo_pair(args)
 
     from photomodel.locate import Locator, PaperMethod
     from photomodel.search import GAConfig, SearchSpace

@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import TYPE_CHECKING
 
-from photomodel.cli._options import check_float
+from photomodel.cli._options import add_stereo_options, check_float, load_stereo_pair
 from photomodel.errors import InputError
 from photomodel.robot import available_link_sets
 
@@ -72,9 +72,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "box; prints the plan as JSON.")
     p.add_argument("--model", required=True,
                    help="photo-model file (.npz)")
-    p.add_argument("--stereo", required=True, help="stereo calibration (K1, D1, ...)")
-    p.add_argument("--right", required=True, help="camera 1 (right) image")
-    p.add_argument("--left", required=True, help="camera 2 (left) image")
+    add_stereo_options(p)
     p.add_argument("--hand-eye", required=True, help="hand-eye file (key T_hand_cam1, mm)")
     pose = p.add_mutually_exclusive_group(required=True)
     pose.add_argument("--joints-deg", type=float, nargs="+", metavar="Q",
@@ -100,9 +98,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from photomodel.camera import load_stereo
     from photomodel.cell import grasp_point_from_photo_px, pick, write_json_atomic
-    from photomodel.image import read_color_image
     from photomodel.model import load_model
     from photomodel.robot import (
         animate_plan,
@@ -126,11 +122,7 @@ def run(args: argparse.Namespace) -> int:
                 else grasp_point_from_photo_px(model, args.grasp_px)
                 if args.grasp_px is not None else (0.0, 0.0))
     layout, settings = layout_and_settings(args, grasp_mm)  # type: ignore[arg-type]
-    rig = load_stereo(args.stereo)
-    right = read_color_image(args.right)
-    left = read_color_image(args.left)
-    rig.cam1.check_image(right, str(args.right))
-    rig.cam2.check_image(left, str(args.left))
+    rig, right, left = load_stereo_pair(args)
     result = pick(model, rig, right, left, arm, q, T_hand_cam1, layout=layout,
                   settings=settings, rng=args.seed)
     data = {"arm": arm.name, "link_set": arm.link_set, "joints_deg": np.degrees(q).tolist(),

@@ -8,6 +8,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from photomodel.cli._options import add_stereo_options
 from photomodel.errors import InputError
 
 
@@ -18,8 +19,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "/locate, /identify and /models over HTTP; the operator "
                                    "page is at /. /health says 'warming' until every kernel is "
                                    "loaded and the library's index read.")
-    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration of the hand "
-                                                              "rig")
+    add_stereo_options(p, pair=False)
     p.add_argument("--models", required=True, type=Path,
                    help="model library directory (created when missing)")
     p.add_argument("--camera", type=Path, default=None,

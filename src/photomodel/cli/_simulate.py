@@ -1,5 +1,5 @@
-"""``photomodel simulate``: write a simulated dataset directory (DESIGN.md layout), or with
-``--sequences`` stereo sequences with per-frame truth for a tracker."""
+"""``photomodel simulate``: write a simulated dataset directory (docs/contracts.md, "Dataset
+directory"), or with ``--sequences`` stereo sequences with per-frame truth for a tracker."""
 
 from __future__ import annotations
 

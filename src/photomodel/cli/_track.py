@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from photomodel.cli._options import add_stereo_options
 from photomodel.errors import InputError, PhotomodelError
 
 if TYPE_CHECKING:
@@ -27,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "with --json); a bad frame is one line on stderr and the "
                                    "exit code is 1.")
     p.add_argument("--model", required=True, type=Path, help="photo-model file")
-    p.add_argument("--stereo", required=True, type=Path, help="stereo calibration")
+    add_stereo_options(p, pair=False)
     p.add_argument("--frames", required=True, type=Path,
                    help="sequence folder: one sub-folder per frame with right.png, left.png")
     p.add_argument("--json", action="store_true", help="print one JSON object per frame")

@@ -34,14 +34,16 @@ from typing import Any
 
 import numpy as np
 
+from photomodel._files import write_atomic, write_atomic_with
 from photomodel.errors import InputError
+from photomodel.experiments._records import append_csv_rows, whole_lines
 from photomodel.experiments._run import (
     config_changes,
     pool_stream,
     read_json,
     run_directory,
     run_metadata,
-    write_config,
+    write_json,
 )
 from photomodel.experiments._trials import ExperimentConfig, _model
 from photomodel.geometry import in_plane_angle_rad, rotation_angle_deg
@@ -235,22 +237,8 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
 
 
 def _append(path: Path, row: dict[str, Any]) -> None:
-    new = not path.exists() or path.stat().st_size == 0
-    torn = False
-    if not new:
-        with path.open("rb") as f:
-            f.seek(-1, os.SEEK_END)
-            torn = f.read(1) != b"\n"  # a row cut short by an interruption
-    with path.open("a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=IDENTIFY_COLUMNS, extrasaction="raise")
-        if new:
-            writer.writeheader()
-        if torn:
-            f.write("\r\n")
-        writer.writerow({k: (repr(float(v)) if isinstance(v, float) else v)
-                         for k, v in row.items()})
-        f.flush()
-        os.fsync(f.fileno())
+    append_csv_rows(path, IDENTIFY_COLUMNS, [{k: (repr(float(v)) if isinstance(v, float) else v)
+                                              for k, v in row.items()}])
 
 
 def read_identify_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
@@ -265,7 +253,7 @@ def read_identify_records(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     if not p.is_file():
         raise InputError(p, "identification records not found")
     try:
-        with p.open(newline="") as f:
+        with whole_lines(p) as f:
             reader = csv.DictReader(f)
             if reader.fieldnames is None:
                 return []
@@ -324,7 +312,7 @@ def run_identify_experiment(
         The summary (:func:`summarise_identify`) with the run's metadata.
     """
     out = Path(out)
-    with run_directory(out, ("identify_config.json", "identify_config.json.tmp")):
+    with run_directory(out, ("identify_config.json",)):
         return _run_identify(out, config, workers, progress)
 
 
@@ -336,7 +324,7 @@ def _run_identify(out: Path, config: IdentifyExperimentConfig, workers: int | No
     if diff:
         raise InputError(out, "holds an identification experiment with other settings "
                               f"({', '.join(diff)}); choose another --out")
-    write_config(cfg_path, wanted)
+    write_json(cfg_path, wanted)
     records = out / "identify.csv"
     trials = plan_identify_trials(config)
     if not trials:
@@ -369,7 +357,7 @@ def _record_run(out: Path, trials: int, wall_seconds: float) -> None:
     runs = _read_runs(out) or []
     runs.append({"commit": run_metadata()["commit"], "trials": trials,
                  "wall_seconds": wall_seconds})
-    write_config(path, {"runs": runs})   # atomic JSON
+    write_json(path, {"runs": runs})
 
 
 def _read_runs(out: Path) -> list[dict[str, Any]] | None:
@@ -512,9 +500,7 @@ def write_identify_report(out: str | os.PathLike[str],
     summary.update(run_metadata())
     if wall_seconds is not None:
         summary["wall_seconds_this_run"] = wall_seconds
-    tmp = out / ".identify_summary.json.tmp"
-    tmp.write_text(json.dumps(summary, indent=1) + "\n")
-    os.replace(tmp, out / "identify_summary.json")
+    write_json(out / "identify_summary.json", summary)
     _confusion_figure(summary, out / "confusion.png")
     lines = [
         "# Identification experiment", "",
@@ -547,7 +533,7 @@ def write_identify_report(out: str | os.PathLike[str],
                   f"(= locate) on all {pose['true_model_search']['n']} scenes where it ran: "
                   f"{_fmt(pose['true_model_search']['success'])}.", "",
               "![confusion matrix](confusion.png)", ""]
-    (out / "identify_report.md").write_text("\n".join(lines))
+    write_atomic(out / "identify_report.md", "\n".join(lines).encode("utf-8"))
     return summary
 
 
@@ -576,10 +562,10 @@ def _confusion_figure(summary: dict[str, Any], path: Path) -> None:
     ax.set_title(f"identify: top-1 {_fmt(summary['top1'])}, false acceptance "
                  f"{_fmt(summary['false_accept'])}", fontsize=9)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path)
+    try:
+        write_atomic_with(path, fig.savefig)
+    finally:
+        plt.close(fig)
 
 
 def calibrate_from_records(out: str | os.PathLike[str], *, max_false_accept: float = 0.01,

@@ -9,14 +9,16 @@ right camera), ``err_theta_deg`` wrapped to (-180, 180].
 from __future__ import annotations
 
 import csv
+import io
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import append_lines
 from photomodel.errors import InputError
 
 __all__ = ["COLUMNS", "FLOAT_COLUMNS", "append_records", "done_trial_ids", "read_records"]
@@ -41,29 +43,42 @@ def append_records(path: str | os.PathLike[str], rows: Iterable[Mapping[str, Any
 
     Floats are written with ``repr`` precision, so a reread value is bit-identical.
     """
-    path = Path(path)
-    new = not path.exists() or path.stat().st_size == 0
-    torn = False
-    if not new:
-        with path.open("rb") as f:
-            f.seek(-1, os.SEEK_END)
-            torn = f.read(1) != b"\n"  # a row cut short by an interruption
-    with path.open("a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="raise")
-        if new:
+    append_csv_rows(path, COLUMNS, [{k: (repr(float(v)) if k in FLOAT_COLUMNS else v)
+                                     for k, v in row.items()} for row in rows])
+
+
+def append_csv_rows(path: str | os.PathLike[str], columns: Sequence[str],
+                    rows: Iterable[Mapping[str, Any]]) -> None:
+    """Append ``rows`` (each keyed by ``columns``) to the CSV ``path`` in one write, flushed to
+    disk (:func:`~photomodel._files.append_lines`): the header first when the file holds no
+    whole line; a last row cut short by an interruption (no line break) is dropped first."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="raise", lineterminator="")
+
+    def line(row: Mapping[str, Any] | None) -> bytes:
+        buf.seek(0)
+        buf.truncate()
+        if row is None:
             writer.writeheader()
-        if torn:
-            f.write("\r\n")
-        for row in rows:
-            writer.writerow({k: (repr(float(v)) if k in FLOAT_COLUMNS else v)
-                             for k, v in row.items()})
-        f.flush()
-        os.fsync(f.fileno())
+        else:
+            writer.writerow(row)
+        return buf.getvalue().encode("utf-8")
+
+    append_lines(path, [line(row) for row in rows], mode=0o644, header=line(None))
+
+
+def whole_lines(path: Path) -> io.StringIO:
+    """The text of the CSV ``path`` up to its last line break, to read rows from: a last row
+    without one was cut short by an interruption, and :func:`append_csv_rows` drops it.
+
+    Raises ``OSError`` or ``UnicodeDecodeError``."""
+    text = path.read_bytes().decode("utf-8")
+    return io.StringIO(text[:text.rfind("\n") + 1], newline="")
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
     try:
-        with path.open(newline="") as f:
+        with whole_lines(path) as f:
             reader = csv.DictReader(f)
             if reader.fieldnames is None:
                 return []

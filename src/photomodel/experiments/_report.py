@@ -3,8 +3,8 @@
 Figures are built on ``matplotlib.figure.Figure`` with the Agg canvas (no pyplot, so no global
 backend switch and no open-figure registry) under matplotlib's default style, whatever the
 user's ``matplotlibrc`` says. PNGs are written without the "Software" metadata entry, so the
-same input gives the same bytes. Every file is written atomically (temporary file, then
-``os.replace``).
+same input gives the same bytes. Every file is written atomically
+(:func:`photomodel._files.write_atomic`).
 
 Figures and their counterparts in the paper:
 
@@ -35,6 +35,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 
+from photomodel._files import write_atomic
 from photomodel.errors import InputError
 from photomodel.experiments._records import read_records
 from photomodel.experiments._stats import (
@@ -84,22 +85,12 @@ def _figure(width_in: float, height_in: float) -> Figure:
     return fig
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and ``os.replace``."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _save_png(fig: Figure, path: Path) -> None:
     """Save ``fig`` as a reproducible PNG (no "Software" metadata), atomically."""
     buf = io.BytesIO()
     with _style():
         fig.savefig(buf, format="png", dpi=_DPI, metadata={"Software": None})
-    _write_atomic(path, buf.getvalue())
+    write_atomic(path, buf.getvalue())
 
 
 # --- error histograms (Figs. 12-16) ------------------------------------------------------
@@ -498,5 +489,5 @@ def write_report(out_dir: str | os.PathLike[str],
             lines += _figure_line(file, f"Error histograms of garment {g}")
 
     path = out / "report.md"
-    _write_atomic(path, ("\n".join(lines).rstrip("\n") + "\n").encode("utf-8"))
+    write_atomic(path, ("\n".join(lines).rstrip("\n") + "\n").encode("utf-8"))
     return path

@@ -27,6 +27,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from photomodel._files import write_atomic
 from photomodel.errors import InputError, one_line_input_warnings
 from photomodel.experiments._lock import LOCK_NAME, die_with_parent, run_lock
 from photomodel.experiments._records import append_records, done_trial_ids
@@ -89,11 +90,10 @@ def config_changes(path: Path, wanted: dict[str, Any],
                   if found.get(k) != wanted.get(k) and k not in ignore)
 
 
-def write_config(path: Path, config: dict[str, Any]) -> None:
-    """Write a run's config JSON atomically."""
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(config, indent=1) + "\n")
-    os.replace(tmp, path)
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """Write one of a run's JSON files (config, summary, runs) atomically
+    (:func:`~photomodel._files.write_atomic`)."""
+    write_atomic(path, (json.dumps(data, indent=1) + "\n").encode())
 
 
 def _check_config(out: Path, config: ExperimentConfig) -> None:
@@ -108,7 +108,7 @@ def _check_config(out: Path, config: ExperimentConfig) -> None:
                                   f"({', '.join(diff)}); choose another --out to start afresh")
         if not grows:
             return
-    write_config(path, wanted)
+    write_json(path, wanted)
 
 
 def _in_process(config: ExperimentConfig, trials: list[Trial]) -> Iterator[dict[str, Any]]:
@@ -219,8 +219,7 @@ def run_experiment(
         wall time and commit of each run that recorded trials).
     """
     out = Path(out)
-    with run_directory(out, ("config.json", "summary.json", "summary.json.tmp",
-                             "config.json.tmp")):
+    with run_directory(out, ("config.json", "summary.json")):
         return _run(out, config, workers, scheduler, progress)
 
 
@@ -300,7 +299,5 @@ def _run(out: Path, config: ExperimentConfig, workers: int | None, scheduler: An
     summary["runs"] = [*before.get("runs", []), this_run] if pending else before.get("runs", [])
     summary["wall_seconds_total"] = (float(before.get("wall_seconds_total", 0.0))
                                      + summary["wall_seconds_this_run"])
-    tmp = previous.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(summary, indent=1) + "\n")
-    os.replace(tmp, previous)
+    write_json(previous, summary)
     return summary

@@ -22,7 +22,7 @@ from photomodel.camera import StereoRig, load_camera, load_distance_mm, load_ste
 from photomodel.geometry import in_plane_angle_rad
 from photomodel.image import read_color_image
 from photomodel.locate import LocateResult, Locator, Method, PaperMethod
-from photomodel.model import PhotoModel, build_photo_model
+from photomodel.model import DEFAULT_STATION_DISTANCE_MM, PhotoModel, build_photo_model
 from photomodel.search import GAConfig
 
 __all__ = [
@@ -145,7 +145,7 @@ def _model(config: ExperimentConfig, garment: str) -> PhotoModel:
         return station_model(garment, config.seed)
     root = Path(config.dataset)
     camera = load_camera(root / "model_camera.yaml")
-    distance = load_distance_mm(root / "model_camera.yaml") or 400.0
+    distance = load_distance_mm(root / "model_camera.yaml") or DEFAULT_STATION_DISTANCE_MM
     photo = read_color_image(root / "models" / garment / "photo.bmp")
     background = read_color_image(root / "models" / garment / "background.bmp")
     return build_photo_model(photo, background, camera, distance, name=garment).model

@@ -7,14 +7,15 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_hsv": ["bgr_to_hsv", "circular_mean_hue_deg", "hue_distance_deg"],
-        "_io": ["decode_color_image", "decode_color_images", "read_color_image", "read_grey_image",
-                "write_image"],
+        "_io": ["IMAGE_SUFFIXES", "decode_color_image", "decode_color_images",
+                "read_color_image", "read_grey_image", "write_image"],
         "_label": ["draw_label"],
         "_sample": ["sample_bilinear"],
     },
 )
 
 __all__ = [
+    "IMAGE_SUFFIXES",
     "bgr_to_hsv",
     "circular_mean_hue_deg",
     "decode_color_image",

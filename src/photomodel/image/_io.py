@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic
 from photomodel._limits import (
     MAX_IMAGE_FILE_BYTES,
     MAX_IMAGE_PIXELS,
@@ -40,12 +41,17 @@ from photomodel._limits import (
 from photomodel.errors import InputError, InputWarning
 
 __all__ = [
+    "IMAGE_SUFFIXES",
     "decode_color_image",
     "decode_color_images",
     "read_color_image",
     "read_grey_image",
     "write_image",
 ]
+
+IMAGE_SUFFIXES = (".png", ".bmp", ".jpg", ".jpeg")
+"""File suffixes (lower case) of the image formats :func:`read_color_image` reads: PNG, BMP and
+JPEG. Folders of images are listed by them, and an image a command writes takes one of them."""
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_BIT_DEPTHS = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16), 6: (8, 16)}
@@ -177,15 +183,14 @@ def _judged(source: str | os.PathLike[str], fmt: str, image: NDArray | None,
 
 
 def write_image(path: str | os.PathLike[str], image: NDArray[np.uint8]) -> None:
-    """Write an image atomically (temporary file, then rename); format from the suffix."""
+    """Write an image atomically (:func:`~photomodel._files.write_atomic`); format from the
+    suffix."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     ok, buf = cv2.imencode(p.suffix or ".png", image)
     if not ok:
         raise InputError(p, f"cannot encode an image as {p.suffix or '.png'}")
-    tmp = p.with_name(f".{p.name}.tmp")
-    buf.tofile(tmp)
-    os.replace(tmp, p)
+    write_atomic(p, buf.tobytes())
 
 
 # --- headers -------------------------------------------------------------------------------

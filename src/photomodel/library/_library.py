@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic
 from photomodel.errors import InputError
 from photomodel.model import PhotoModel, load_model, save_model
 from photomodel.model._descriptor import ModelDescriptor, describe_model
@@ -278,18 +279,9 @@ def check_label_code(code: str, source: str = "code") -> str:
 
 
 def _write_json(path: Path, data: Any) -> None:
-    """Replace ``path`` with ``data`` as JSON, atomically: a temporary file beside it
-    (``.<name>.tmp-<pid>``), flushed to disk, then renamed over it (call holding
-    :meth:`ModelLibrary._locked`)."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with open(tmp, "w") as fh:
-            fh.write(json.dumps(data, indent=1) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    """Replace ``path`` with ``data`` as JSON, atomically and flushed to disk
+    (:func:`~photomodel._files.write_atomic`; call holding :meth:`ModelLibrary._locked`)."""
+    write_atomic(path, (json.dumps(data, indent=1) + "\n").encode())
 
 
 class ModelLibrary:
@@ -352,14 +344,15 @@ class ModelLibrary:
 
     def _remove_leftovers(self) -> None:
         """Remove what killed writers left (call holding the lock): every index and label map
-        temporary, and model temporaries (``.<name>.npz.tmp``, ``.<name>.model.tmp``) older
+        temporary, and model temporaries (``.<name>.npz.tmp-<pid>-<thread>``, and
+        ``.<name>.npz.tmp`` as earlier versions named them; likewise ``.model``) older
         than a minute (a ``photomodel build --out`` straight into the directory, which takes
         no lock, may be writing a young one)."""
         for own in (INDEX_NAME, LABELS_NAME):
             for stale in self.root.glob(f".{own}.tmp-*"):
                 stale.unlink(missing_ok=True)
         now = time.time()
-        for stale in (*self.root.glob(".*.npz.tmp"), *self.root.glob(".*.model.tmp")):
+        for stale in (*self.root.glob(".*.npz.tmp*"), *self.root.glob(".*.model.tmp*")):
             with contextlib.suppress(OSError):
                 if now - stale.stat().st_mtime > 60.0:
                     stale.unlink()

@@ -140,7 +140,45 @@ def paper_method(method: Method) -> PaperMethod | None:
 
 @dataclass(frozen=True)
 class LocateResult:
-    """The pose found for one model in one stereo pair (the ``locate --json`` contract)."""
+    """The pose found for one model in one stereo pair (the ``locate --json`` contract,
+    docs/contracts.md: :meth:`to_json_dict`).
+
+    Attributes
+    ----------
+    model : str
+        The model's name.
+    found : bool
+        ``score >= min_score`` (the calibrated threshold for the default method, the
+        :class:`PaperMethod`'s ``min_score`` for the paper's).
+    T_cam1_model : ndarray (4, 4)
+        The best pose found, found or not: maps model coordinates (mm) to camera 1's
+        (OpenCV frame, the reference camera). Rigid; the fitted :attr:`strain` is in
+        :attr:`A_cam1_model`.
+    fitness : float
+        The search's best fitness, in its fitness's own units: the ``soft`` fitness for the
+        default method, the :class:`PaperMethod`'s (eq. 9's ``F`` for the paper's).
+    score : float
+        The score in [0, 1] that ``found`` compares: the default method's mean of the
+        level-0 fitness and the outline evidence, each patch free to slide up to 1 mm
+        (:func:`~photomodel.fitness.score_terms`; a tracked frame's without the slack); a
+        :class:`PaperMethod`'s fitness over its maximum, clipped (eq. 9: ``F / (2 N_in)``).
+    seconds : float
+        Wall-clock time of the call, s (the images' features and the search; on a model's
+        first pair its preparation too).
+    search : SearchResult
+        The search that gave the pose: pose vector, evaluations (summed over every search
+        of the call), iterations, why it stopped, the fitted strain and camera blur.
+    edge_evidence : float
+        Share of the model's outline both cameras see as an edge at the pose (no slack), in
+        [0, 1]; NaN with the paper's method.
+    visible_outline : float
+        Outline evidence where the model's inside agrees
+        (:attr:`~photomodel.fitness.ScoreTerms.visible_outline`), in [0, 1]; NaN when not
+        measured.
+    scale : float or None
+        For a model of unknown scale, real millimetres per nominal millimetre measured from
+        this pair (:func:`~photomodel.locate.locate_unknown_scale`); None otherwise.
+    """
 
     model: str
     found: bool
@@ -151,12 +189,7 @@ class LocateResult:
     search: SearchResult
     edge_evidence: float = float("nan")
     visible_outline: float = float("nan")
-    """Outline evidence where the model's inside agrees
-    (:attr:`~photomodel.fitness.ScoreTerms.visible_outline`), in [0, 1]; NaN when not
-    measured."""
     scale: float | None = None
-    """For a model of unknown scale, the factor measured from this pair (real millimetres per
-    nominal millimetre; :func:`~photomodel.locate.locate_unknown_scale`); None otherwise."""
 
     @property
     def position_mm(self) -> NDArray[np.float64]:
@@ -317,19 +350,10 @@ def locate_paper(model: PhotoModel, rig: StereoRig, right_bgr: NDArray[np.uint8]
 
 
 COARSE_SCAN = ScanConfig(level=4, detail_level=3, theta_step_deg=8.0, rank_margin=0.15)
-"""The first scan of :func:`locate_in_features`: level 4 with level 3's sample points (about
-a third of level 3's scan time); level 3's scan follows only when it is not trusted or the
-search from its peaks scores under :data:`COARSE_MIN_SCORE` (or the threshold, where higher).
-
-Its angles lie 8 degrees apart (level 3's: 4), and it keeps the hypotheses within 0.15 of the
-best one's level-3 fitness (level 3's: 0.3): level 4's pixel is 16 mm on the garment, so 4
-degrees are half a pixel at 100 mm from the centre and the evolution strategy on level 3 walks
-them; each hypothesis dropped is one such walk less.
-
-When it is not trusted (under another lamp or exposure the garment's own colours agree
-nowhere), it is relit as level 3's is (``relight``: the scene colours' two likeliest light
-offsets, :func:`~photomodel.fitness.relight_scan`) before level 3 is scanned, so that a dim or
-warm-light scene is mostly scanned twice rather than four times. See docs/method/scan.md."""
+"""The first scan of :func:`locate_in_features`: level 4 with level 3's sample points, angles
+8 deg apart, hypotheses within 0.15 of the best; level 3's scan follows only when it is not
+trusted (after relighting) or the search from its peaks scores under :data:`COARSE_MIN_SCORE`
+(or the threshold, where higher). Why these values: docs/method/scan.md."""
 
 COARSE_MIN_SCORE = 0.6
 """The score from which the search from :data:`COARSE_SCAN`'s peaks ends the work (or the

@@ -33,8 +33,7 @@ level (a model a few per cent too large fits as well farther away in one camera;
 camera settles the depth only when the size is free too)."""
 SCALE_TOLERANCE = 5e-3
 """A correction of the scale under this (0.5 %), once applied, ends the search: the round after
-one corrected the factor by c corrects it by a fifth of c or less (measured: 5.3 % then
-0.94 % then 0.01 %; 0.06 % then 0.00 %)."""
+one corrected the factor by c corrects it by a fifth of c or less (docs/method/register.md)."""
 MAX_ROUNDS = 4
 MAX_REGIONS = 3
 

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from photomodel._files import write_atomic
 from photomodel.errors import InputError
 
 __all__ = ["THRESHOLD_FILE", "Threshold", "calibrate_threshold", "load_threshold",
@@ -175,11 +176,6 @@ def save_threshold(threshold: Threshold, path: str | os.PathLike[str] | None = N
         p.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(p, f"cannot create its folder ({exc.strerror})") from None
-    tmp = p.with_name(f".{p.name}.tmp")
-    try:
-        tmp.write_text(json.dumps({"min_score": threshold.min_score,
-                                   "metadata": threshold.metadata}, indent=1) + "\n")
-        os.replace(tmp, p)
-    finally:
-        tmp.unlink(missing_ok=True)
+    write_atomic(p, (json.dumps({"min_score": threshold.min_score,
+                                 "metadata": threshold.metadata}, indent=1) + "\n").encode())
     return p

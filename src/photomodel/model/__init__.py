@@ -6,7 +6,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_build": ["BuildQuality", "BuildResult", "build_model", "build_photo_model"],
-        "_config": ["BuildConfig"],
+        "_config": ["DEFAULT_STATION_DISTANCE_MM", "BuildConfig"],
         "_descriptor": ["DESCRIPTOR_VERSION", "ModelDescriptor", "describe_model"],
         "_in_place": ["InPlaceBuild", "TablePlane", "build_in_place", "measure_plane"],
         "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
@@ -17,6 +17,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
 )
 
 __all__ = [
+    "DEFAULT_STATION_DISTANCE_MM",
     "DESCRIPTOR_VERSION",
     "FORMAT_VERSION",
     "MAX_SCALE",

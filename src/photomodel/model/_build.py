@@ -65,13 +65,14 @@ from numpy.typing import NDArray
 from photomodel.camera import PinholeCamera
 from photomodel.errors import InputError, InputWarning, NoGarmentError
 from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg, sample_bilinear
-from photomodel.model._config import BuildConfig
+from photomodel.model._config import DEFAULT_STATION_DISTANCE_MM, BuildConfig
 from photomodel.model._photomodel import PhotoModel
 
 __all__ = ["BuildConfig", "BuildQuality", "BuildResult", "build_model", "build_photo_model"]
 
 MAX_DISTANCE_MM = 100_000.0
-"""Farthest camera-to-plane distance taken (a model station is about 400 mm)."""
+"""Farthest camera-to-plane distance taken, mm (a model station: about
+:data:`DEFAULT_STATION_DISTANCE_MM`)."""
 MIN_POINTS = 8
 """Fewest S_in and S_out points a model needs (``step_mm`` too large for a garment leaves
 fewer)."""
@@ -149,7 +150,7 @@ def build_photo_model(
     photo_bgr: NDArray[np.uint8],
     background_bgr: NDArray[np.uint8],
     camera: PinholeCamera,
-    distance_mm: float = 400.0,
+    distance_mm: float = DEFAULT_STATION_DISTANCE_MM,
     *,
     name: str = "garment",
     config: BuildConfig | None = None,
@@ -562,7 +563,7 @@ def build_model(
     photo_bgr: NDArray[np.uint8],
     background_bgr: NDArray[np.uint8],
     camera: PinholeCamera,
-    distance_mm: float = 400.0,
+    distance_mm: float = DEFAULT_STATION_DISTANCE_MM,
     *,
     name: str = "garment",
     config: BuildConfig | None = None,

@@ -5,7 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["BuildConfig"]
+__all__ = ["DEFAULT_STATION_DISTANCE_MM", "BuildConfig"]
+
+DEFAULT_STATION_DISTANCE_MM = 400.0
+"""Model-station camera to plane distance, mm, where none is given (the paper's station)."""
 
 
 @dataclass(frozen=True)

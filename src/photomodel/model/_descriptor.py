@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.model._config import DEFAULT_STATION_DISTANCE_MM
 from photomodel.model._photomodel import PhotoModel
 
 __all__ = [
@@ -165,10 +166,12 @@ class ModelDescriptor:
 
 def model_mm_per_px(model: PhotoModel) -> float:
     """Millimetres per pixel of the model photo on the garment plane (its camera's focal
-    length and distance; 400 mm and 760 px when the file does not say)."""
+    length and distance; :data:`DEFAULT_STATION_DISTANCE_MM` and 760 px when the file does
+    not say)."""
     K = np.asarray(model.meta.get("camera_K", [[760.0, 0, 0], [0, 760.0, 0], [0, 0, 1]]),
                    dtype=np.float64)
-    return float(model.meta.get("distance_mm", 400.0)) / float(np.sqrt(K[0, 0] * K[1, 1]))
+    distance_mm = model.meta.get("distance_mm", DEFAULT_STATION_DISTANCE_MM)
+    return float(distance_mm) / float(np.sqrt(K[0, 0] * K[1, 1]))
 
 
 def _rounded(value: float, decimals: int) -> float:

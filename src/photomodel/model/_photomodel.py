@@ -31,6 +31,7 @@ direction (into the plane); the garment is flat, so every point has z = 0.
 from __future__ import annotations
 
 import errno
+import io
 import json
 import math
 import os
@@ -44,6 +45,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic
 from photomodel._limits import (
     MAX_DISTANCE_MM,
     MAX_IMAGE_PIXELS,
@@ -134,14 +136,10 @@ def save_model(model: PhotoModel, path: str | os.PathLike[str]) -> Path:
     except OSError as exc:
         raise InputError(p, f"cannot create its folder ({exc.strerror})") from None
     meta = {"format": _FORMAT_NAME, "version": FORMAT_VERSION, "name": model.name, **model.meta}
-    tmp = p.with_name(f".{p.name}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, meta=np.array(json.dumps(meta)),
-                                **{k: np.asarray(getattr(model, k)) for k in _ARRAYS})
-        os.replace(tmp, p)
-    finally:
-        tmp.unlink(missing_ok=True)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, meta=np.array(json.dumps(meta)),
+                        **{k: np.asarray(getattr(model, k)) for k in _ARRAYS})
+    write_atomic(p, buf.getvalue())
     return p
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._files import write_atomic_with
 from photomodel.errors import InputError
 from photomodel.geometry import invert_transform, transform_points
 from photomodel.robot._arm import ArmModel
@@ -182,12 +183,9 @@ def save_animation(anim: Any, fig: Any, out: Path, fps: int, dpi: int) -> Path:
     from matplotlib.animation import FFMpegWriter, PillowWriter
 
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
     writer = PillowWriter(fps=fps) if out.suffix.lower() == ".gif" else FFMpegWriter(fps=fps)
     try:
-        anim.save(str(tmp), writer=writer, dpi=dpi)
-        os.replace(tmp, out)
+        write_atomic_with(out, lambda tmp: anim.save(str(tmp), writer=writer, dpi=dpi))
     finally:
         plt.close(fig)
-        tmp.unlink(missing_ok=True)
     return out

@@ -38,7 +38,7 @@ from scipy.spatial.transform import Rotation
 from photomodel.calibrate._detect import chessboard_pose
 from photomodel.calibrate._pattern import Chessboard
 from photomodel.camera import PinholeCamera
-from photomodel.camera._io import _matrix, _open, _write_atomic
+from photomodel.camera._io import _matrix, _open, _write_file_storage
 from photomodel.errors import InputError
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.image import read_color_image
@@ -116,7 +116,7 @@ def save_hand_eye(path: str | os.PathLike[str], T_hand_cam1: ArrayLike,
         for key, value in (info or {}).items():
             fs.write(key, value if isinstance(value, str) else float(value))
 
-    _write_atomic(p, write)
+    _write_file_storage(p, write)
 
 
 @dataclass(frozen=True)

@@ -43,12 +43,9 @@ __all__ = ["BinaryGA", "GAConfig"]
 class GAConfig:
     """Settings of :class:`BinaryGA` (paper: 60 individuals, 6 genes of 12 bits).
 
-    The defaults add Gray coding and four independent restarts to the paper's GA. Measured
-    on ten seeded scenes each of a plaid and a plain T-shirt (x-y error < 3 mm and angle
-    < 1 deg counted as success): the plain-binary GA reached 1 of 10 plaid scenes, Gray
-    coding alone 9 of 10; with the ``balanced`` fitness and refinement, restarts lifted a
-    second plaid garment from 7 to 10 of 10 (``tests/locate``). :meth:`paper` gives the
-    paper's GA as read here.
+    The defaults add Gray coding (no Hamming cliffs between neighbouring values) and four
+    independent restarts (out of a print's repeated peaks) to the paper's GA
+    (docs/method/paper.md). :meth:`paper` gives the paper's GA as read here.
     """
 
     population: int = 60

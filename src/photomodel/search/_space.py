@@ -52,8 +52,8 @@ class SearchSpace:
     ) -> SearchSpace:
         """Bounds from position ranges (mm) and symmetric in-plane / tilt angle ranges (deg).
 
-        The defaults are the paper's experiment (DESIGN.md): x +-255 mm, y +-195 mm,
-        z 500-900 mm, in-plane angle +-53 deg, tilt +-10 deg.
+        The defaults are the paper's experiment (docs/contracts.md, "Command line"):
+        x +-255 mm, y +-195 mm, z 500-900 mm, in-plane angle +-53 deg, tilt +-10 deg.
 
         Parameters
         ----------

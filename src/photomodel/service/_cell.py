@@ -28,7 +28,7 @@ from photomodel.image import decode_color_image, decode_color_images
 from photomodel.library import ModelLibrary, check_model_name
 from photomodel.library._library import LibraryEntry
 from photomodel.locate import Locator, draw_overlay, draw_table_overlay, load_threshold
-from photomodel.model import PhotoModel, build_model
+from photomodel.model import DEFAULT_STATION_DISTANCE_MM, PhotoModel, build_model
 from photomodel.service._audit import AuditLog, file_sha256
 from photomodel.service._auth import TokenBook, TokenFile
 from photomodel.service._camera_feed import CameraFeed
@@ -109,13 +109,9 @@ class ServiceConfig:
         Where ``POST /record`` writes (default: ``recordings`` beside the model library).
     prepared_models : int
         Most models kept prepared for the rig (1 to 100000; the least recently used is
-        dropped beyond). A prepared model holds about 22 MB with 640 x 480 cameras (measured
-        on 20 catalogue models, resident memory and ``tracemalloc`` alike; the coarse scan's
-        kernel spectra are 19 MB of it, and they grow with the image area). With 10,000 models
-        in the library the service's resident memory settled at 1.26 GB with 32 prepared
-        (1.42 GB after an identify), 1.66 GB with 48 and 2.07 GB with 64, hence the default
-        32. A model not held is loaded and prepared by the request that needs it (0.1-0.5 s
-        on 2 cores).
+        dropped beyond); a model not held is loaded and prepared by the request that needs
+        it. Each holds tens of MB, growing with the image area (memory and the default:
+        docs/method/service.md, "Prepared models and memory").
     """
 
     stereo: Path
@@ -226,10 +222,10 @@ class CellService:
         self.config = config
         self.rig: StereoRig = load_stereo(config.stereo)
         self.camera: PinholeCamera | None = None
-        self.distance_mm = 400.0
+        self.distance_mm = DEFAULT_STATION_DISTANCE_MM
         if config.camera is not None:
             self.camera = load_camera(config.camera)
-            self.distance_mm = load_distance_mm(config.camera) or 400.0
+            self.distance_mm = load_distance_mm(config.camera) or DEFAULT_STATION_DISTANCE_MM
         self.library = ModelLibrary(config.models, create=True)
         self.min_score = load_threshold(config.threshold, library=self.library.root).min_score
         self.results = ResultRing(config.results_kept)

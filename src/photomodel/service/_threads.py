@@ -3,12 +3,11 @@ searches that start while it is busy, which end after a second without work.
 
 numba's OpenMP layer gives every thread that starts a parallel kernel its own team of worker
 threads, kept for the thread's life. Once the process holds more of them than there are
-cores, libgomp's workers stop spinning between parallel regions and sleep at once, and every
-region of a search pays for waking them: with one search running, a second team left idle
-made each search about 3 ms slower (16.5 -> 19.9 ms on 2 cores). So the first search in
-flight runs on the primary thread (its team kept), and a search that starts while it is busy
-runs on an extra thread; extra threads serve the rest of a burst and end (their teams with
-them) once idle for :data:`EXTRA_IDLE_S`, so that one team is left, as in a process that
+cores, libgomp's workers sleep between parallel regions, and every region of a search pays for
+waking them (an idle second team slows each search: docs/method/service.md). So the first
+search in flight runs on the primary thread (its team kept), and a search that starts while it
+is busy runs on an extra thread; extra threads serve the rest of a burst and end (their teams
+with them) once idle for :data:`EXTRA_IDLE_S`, so that one team is left, as in a process that
 searches one pair at a time.
 """
 

@@ -31,7 +31,6 @@ import json
 import multiprocessing
 import os
 import re
-import shutil
 import sys
 import zlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -45,11 +44,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera, StereoRig, save_camera, save_stereo
-from photomodel.errors import InputError
 from photomodel.image import write_image
 from photomodel.sim._catalogue import _spec as _garment_spec
 from photomodel.sim._catalogue import catalogue_garment, garment_names
 from photomodel.sim._conditions import Conditions, parse_conditions
+from photomodel.sim._folders import build_folder, check_out, is_ours
 from photomodel.sim._garments import Garment
 from photomodel.sim._rigs import MODEL_DISTANCE_MM, hand_stereo_rig, model_station_camera
 from photomodel.sim._scenes import render_model_photos, simulate_scene
@@ -117,26 +116,7 @@ def check_garment_name(name: str) -> None:
 def is_dataset(path: Path) -> bool:
     """Whether ``path`` is a directory that :func:`write_dataset` wrote (its ``dataset.json``
     says so)."""
-    try:
-        manifest = json.loads((path / "dataset.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(manifest, dict) and manifest.get("format") == _FORMAT
-
-
-def _remove_stale_partials(out: Path) -> None:
-    """Remove the half-built directories of earlier runs for ``out`` whose process is gone
-    (a ``kill -9`` leaves one)."""
-    for partial in out.parent.glob(f".{out.name}.partial-*"):
-        pid = partial.name.rsplit("-", 1)[-1]
-        if not pid.isdigit() or int(pid) == os.getpid():
-            continue
-        try:
-            os.kill(int(pid), 0)
-        except ProcessLookupError:
-            shutil.rmtree(partial, ignore_errors=True)
-        except OSError:
-            pass  # alive (another user's): leave it
+    return is_ours(path, "dataset.json", _FORMAT)
 
 
 def write_dataset(
@@ -266,28 +246,14 @@ def write_dataset(
         raise ValueError("garments: expected at least one")
     if table is not None:
         _check_table(table, parsed, chosen)
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise InputError(out, "exists and is not a directory; choose another --out")
-    if out.exists() and any(out.iterdir()):
-        if not is_dataset(out):
-            raise InputError(out, "already exists and is not a dataset that photomodel "
-                                  "simulate wrote (no dataset.json); --force replaces only "
-                                  "those: choose another --out")
-        if not overwrite:
-            raise InputError(out, "already exists and is not empty (use --force to replace it)")
+    check_out(out, overwrite, "dataset.json", _FORMAT, "a dataset")
     scene_count = (_count_jobs(parsed, len(chosen), scenes) if table is None
                    else len(parsed) * scenes)
     total = (len(chosen) + len(shelf) + scene_count
              + calibration_image_count(calibration_views))
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    created = next((p for p in reversed(out.parents) if not p.exists()), None)
-    complete = False
     scene_ids: list[str] = []
-    try:
-        _remove_stale_partials(out)
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir(parents=True)
+
+    def build(tmp: Path) -> None:
         rig = hand_stereo_rig(lens=lenses.pop())
         camera = model_station_camera()
         save_stereo(tmp / "stereo.yaml", rig)
@@ -361,19 +327,8 @@ def write_dataset(
             manifest["calibration"] = {"views": int(calibration_views),
                                        "readme": "calibration/README.txt"}
         (tmp / "dataset.json").write_text(dumps_json(manifest))
-        if out.exists():
-            if any(out.iterdir()) and not is_dataset(out):   # changed while we worked
-                raise InputError(out, "is no longer a dataset; left as it is")
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-        complete = True
-    except OSError as exc:
-        raise InputError(out, f"cannot write the dataset: {exc.strerror or exc}") from exc
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-        if not complete and created is not None and created.exists():
-            shutil.rmtree(created, ignore_errors=True)  # folders this call made for ``out``
+
+    build_folder(out, "dataset.json", _FORMAT, build, "the dataset")
     return DatasetSummary(out, (*chosen, *shelf), tuple(scene_ids))
 
 

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.geometry import invert_transform, make_transform
+from photomodel.model import DEFAULT_STATION_DISTANCE_MM
 
 __all__ = [
     "BASELINE_MM",
@@ -24,8 +25,8 @@ __all__ = [
     "model_station_camera",
 ]
 
-MODEL_DISTANCE_MM = 400.0
-"""Distance from the model-station camera to the green plane, mm."""
+MODEL_DISTANCE_MM = DEFAULT_STATION_DISTANCE_MM
+"""Distance from the model-station camera to the green plane, mm (the default station's)."""
 
 WORK_DISTANCE_MM = 685.0
 """Distance from the hand rig (middle of its baseline) to the table, along the bisector, mm."""

@@ -58,7 +58,7 @@ def render_model_photos(
     """The model station's two photos: the garment on the plane, and the plane alone.
 
     The plane lies :data:`MODEL_DISTANCE_MM` in front of the camera, facing it squarely
-    (``T_cam_plane`` = translation (0, 0, 400)); the garment lies on it unrotated, its frame's
+    (``T_cam_plane`` a translation along z); the garment lies on it unrotated, its frame's
     origin at ``offset_mm`` in the plane frame (near the image centre). The plane is the
     garment's ``plane_bgr`` (the catalogue's plane-coloured cases), else the station's green.
 

@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -65,13 +64,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera, StereoRig, save_stereo
-from photomodel.errors import InputError
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.image import write_image
 from photomodel.sim._catalogue import _spec as _garment_spec
 from photomodel.sim._catalogue import catalogue_garment, expand_garments
 from photomodel.sim._conditions import Conditions, _srgb_decode, expose
-from photomodel.sim._dataset import MAX_SEED, _remove_stale_partials, dumps_json, scene_rng
+from photomodel.sim._dataset import MAX_SEED, dumps_json, scene_rng
+from photomodel.sim._folders import build_folder, check_out
 from photomodel.sim._garments import Garment
 from photomodel.sim._mesh import field_of_view_radius
 from photomodel.sim._objects import gripper
@@ -836,55 +835,6 @@ def _write_frames(folder: Path, settings: SequenceSettings,
     return len(frames)
 
 
-def _is_ours(path: Path, name: str, fmt: str) -> bool:
-    import json
-
-    try:
-        data = json.loads((path / name).read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(data, dict) and data.get("format") == fmt
-
-
-def _check_out(out: Path, overwrite: bool, marker: str, fmt: str, what: str) -> None:
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise InputError(out, "exists and is not a directory; choose another --out")
-    if out.exists() and any(out.iterdir()):
-        if not _is_ours(out, marker, fmt):
-            raise InputError(out, f"already exists and is not {what} that photomodel "
-                                  f"simulate wrote (no {marker}); --force replaces only "
-                                  "those: choose another --out")
-        if not overwrite:
-            raise InputError(out, "already exists and is not empty (use --force to replace it)")
-
-
-def _atomic(out: Path, marker: str, fmt: str, build: Callable[[Path], None]) -> None:
-    """Run ``build`` on a new sibling of ``out``, then move it into place; nothing is left of
-    a failed or interrupted run (but the folders made for ``out``)."""
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    created = next((p for p in reversed(out.parents) if not p.exists()), None)
-    complete = False
-    try:
-        _remove_stale_partials(out)
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir(parents=True)
-        build(tmp)
-        if out.exists():
-            if any(out.iterdir()) and not _is_ours(out, marker, fmt):  # changed meanwhile
-                raise InputError(out, "changed while it was being replaced; left as it is")
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-        complete = True
-    except OSError as exc:
-        raise InputError(out, f"cannot write the sequences: {exc.strerror or exc}") from exc
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-        if not complete and created is not None and created.exists():
-            shutil.rmtree(created, ignore_errors=True)
-
-
 def write_sequence(out: str | os.PathLike[str], settings: SequenceSettings, *,
                    overwrite: bool = False,
                    progress: Callable[[int, int, str], None] | None = None) -> Path:
@@ -912,7 +862,7 @@ def write_sequence(out: str | os.PathLike[str], settings: SequenceSettings, *,
         ``out`` cannot be replaced or written.
     """
     out = Path(out)
-    _check_out(out, overwrite, "truth.json", _FORMAT_SEQUENCE, "a sequence")
+    check_out(out, overwrite, "truth.json", _FORMAT_SEQUENCE, "a sequence")
     done = 0
 
     def step(label: str) -> None:
@@ -921,7 +871,8 @@ def write_sequence(out: str | os.PathLike[str], settings: SequenceSettings, *,
         if progress is not None:
             progress(done, settings.frames, label)
 
-    _atomic(out, "truth.json", _FORMAT_SEQUENCE, lambda tmp: _write_frames(tmp, settings, step))
+    build_folder(out, "truth.json", _FORMAT_SEQUENCE,
+                 lambda tmp: _write_frames(tmp, settings, step), "the sequences")
     return out
 
 
@@ -992,7 +943,7 @@ def write_sequences(
     if len({s.name for s in plans}) < len(plans):
         raise ValueError(f"fps: {', '.join(f'{r!r}' for r in rates)} name the same rate "
                          "twice (sequences are named by the rate to 6 digits)")
-    _check_out(out, overwrite, "sequences.json", _FORMAT_SET, "a set of sequences")
+    check_out(out, overwrite, "sequences.json", _FORMAT_SET, "a set of sequences")
     total = 1 + sum(s.frames for s in plans)
     done = 0
     model_path = Path("models") / f"{garment}.npz"
@@ -1022,6 +973,6 @@ def write_sequences(
                                   for s in plans}}
         (tmp / "sequences.json").write_text(dumps_json(manifest))
 
-    _atomic(out, "sequences.json", _FORMAT_SET, build)
+    build_folder(out, "sequences.json", _FORMAT_SET, build, "the sequences")
     return SequencesSummary(out, out / "stereo.yaml", out / model_path,
                             tuple(s.name for s in plans), total - 1)
