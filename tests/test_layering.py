@@ -70,3 +70,50 @@ def test_no_private_imports_into_robot_or_cell_from_outside(package: str) -> Non
                  if not _under(module, package) for name in names
                  if _under(name, package) and name[len(package) + 1:].startswith("_"))
     assert bad == []
+
+
+def _subpackage(name: str) -> str | None:
+    """The subpackage ``name`` lies in (``photomodel.sim._table`` -> ``sim``), or None for
+    the top level (``photomodel``, ``photomodel._files``, ``photomodel.errors``)."""
+    parts = name.split(".")
+    if len(parts) < 2 or parts[0] != "photomodel" or parts[1].startswith("_") or \
+            parts[1] == "errors" or (SRC / parts[1]).is_dir() is False:
+        return None
+    return parts[1]
+
+
+WARMUP = "photomodel._warmup"   # compiles every numba kernel, the private ones included
+
+
+def test_no_module_imports_another_subpackages_private_modules() -> None:
+    """Across subpackages only public names (a subpackage's ``__init__``); the top-level
+    private modules (``_files``, ``_limits``, ``_jit``) are everyone's."""
+    bad = sorted({f"{module} imports {'.'.join(name.split('.')[:3])}"
+                  for module, names in IMPORTS.items() if module != WARMUP for name in names
+                  if (theirs := _subpackage(name)) is not None
+                  and theirs != _subpackage(module)
+                  and len(name.split(".")) > 2 and name.split(".")[2].startswith("_")})
+    assert bad == []
+
+
+def test_no_import_cycle_between_subpackages() -> None:
+    graph: dict[str, set[str]] = {}
+    for module, names in IMPORTS.items():
+        mine = _subpackage(module)
+        if mine is None:
+            continue
+        graph.setdefault(mine, set()).update(
+            theirs for name in names
+            if (theirs := _subpackage(name)) is not None and theirs != mine)
+    cycles = []
+
+    def walk(node: str, path: list[str]) -> None:
+        for nxt in sorted(graph.get(node, ())):
+            if nxt in path:
+                cycles.append(" -> ".join([*path[path.index(nxt):], nxt]))
+            elif len(path) < len(graph):
+                walk(nxt, [*path, nxt])
+
+    for start in sorted(graph):
+        walk(start, [start])
+    assert sorted(set(cycles)) == []

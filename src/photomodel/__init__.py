@@ -49,6 +49,11 @@ _RENAMED = {"read_image": "read_color_image"}
 __all__ = ["InputError", "PhotomodelError", "__version__", *sorted(_LAZY)]
 
 
+def __dir__() -> list[str]:
+    """The public names only (``dir(pm)``, tab completion)."""
+    return list(__all__)
+
+
 def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
@@ -56,10 +61,6 @@ def __getattr__(name: str) -> Any:
     value = getattr(importlib.import_module(module), _RENAMED.get(name, name))
     globals()[name] = value
     return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only

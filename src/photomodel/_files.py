@@ -1,6 +1,7 @@
 """Writing files so that a crash loses nothing already written: a whole file replaced at once
-(:func:`write_atomic`, or :func:`write_atomic_with` for a library that writes the file itself)
-and lines appended to a log or table (:func:`append_lines`)."""
+(:func:`write_atomic`, or :func:`write_atomic_with` for a library that writes the file itself,
+:func:`write_file_storage` for OpenCV's ``FileStorage``) and lines appended to a log or table
+(:func:`append_lines`)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,12 @@ import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["append_lines", "locked", "write_atomic", "write_atomic_with"]
+if TYPE_CHECKING:
+    import cv2
+
+__all__ = ["append_lines", "locked", "write_atomic", "write_atomic_with", "write_file_storage"]
 
 
 def write_atomic(path: str | os.PathLike[str], data: bytes, *, mode: int = 0o644,
@@ -78,6 +83,23 @@ def write_atomic_with(path: str | os.PathLike[str], write: Callable[[Path], obje
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def write_file_storage(path: Path, write: Callable[[cv2.FileStorage], None]) -> None:
+    """Replace ``path`` with what ``write`` writes to a ``cv2.FileStorage`` (format from the
+    suffix: .yaml, .xml, .json), atomically (:func:`write_atomic_with`); its folder is
+    created when missing."""
+    import cv2
+
+    def storage(tmp: Path) -> None:
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+        try:
+            write(fs)
+        finally:
+            fs.release()
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic_with(path, storage)
 
 
 @contextmanager

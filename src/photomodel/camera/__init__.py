@@ -5,7 +5,8 @@ import lazy_loader
 __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "_io": ["load_camera", "load_distance_mm", "load_stereo", "save_camera", "save_stereo"],
+        "_io": ["load_camera", "load_distance_mm", "load_matrix", "load_stereo", "save_camera",
+                "save_stereo"],
         "_pinhole": ["PinholeCamera"],
         "_stereo": ["StereoRig"],
     },
@@ -16,6 +17,7 @@ __all__ = [
     "StereoRig",
     "load_camera",
     "load_distance_mm",
+    "load_matrix",
     "load_stereo",
     "save_camera",
     "save_stereo",

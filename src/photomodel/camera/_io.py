@@ -22,14 +22,13 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel._files import write_atomic_with
+from photomodel._files import write_file_storage
 from photomodel._limits import (
     MAX_CALIBRATION_FILE_BYTES,
     MAX_DISTANCE_MM,
@@ -41,7 +40,8 @@ from photomodel.camera._pinhole import PinholeCamera
 from photomodel.camera._stereo import StereoRig
 from photomodel.errors import InputError, InputWarning
 
-__all__ = ["load_camera", "load_distance_mm", "load_stereo", "save_camera", "save_stereo"]
+__all__ = ["load_camera", "load_distance_mm", "load_matrix", "load_stereo", "save_camera",
+           "save_stereo"]
 
 _MAX_VALUES = 64         # numbers in one key (the largest: a 3x4 projection matrix)
 _MAX_NESTING = 2         # [[...], ...]: a matrix written as a list of rows
@@ -226,23 +226,6 @@ class _Calibration:
         self._fs.release()
 
 
-def _open(path: str | os.PathLike[str]) -> _Calibration:
-    """A calibration file parsed and checked as a mapping of keys (for the other
-    calibration files, the hand-eye one for instance)."""
-    return _Calibration(path)
-
-
-def _matrix(path: Path, fs: _Calibration, names: tuple[str, ...], shape: tuple[int, ...] | None,
-            required: bool = True) -> NDArray[np.float64] | None:
-    """The finite numbers of the first of ``names`` in ``fs`` (see :func:`_open`), in
-    ``shape`` (flat when None); None when absent and not ``required``."""
-    counts = None if shape is None else (int(np.prod(shape)),)
-    found = fs.numbers(names, counts, required)
-    if found is None:
-        return None
-    return found[1].reshape(shape) if shape is not None else found[1]
-
-
 def _cv_reason(exc: cv2.error) -> str:
     """The parser's complaint, short and on one line ('line 3: Key may not start ...')."""
     text = str(exc).strip().splitlines()
@@ -327,6 +310,39 @@ def load_distance_mm(path: str | os.PathLike[str]) -> float | None:
     return value
 
 
+def load_matrix(path: str | os.PathLike[str], key: str, shape: tuple[int, ...]
+                ) -> NDArray[np.float64]:
+    """The matrix under ``key`` of a calibration file that holds more than a camera (the
+    hand-eye file's ``T_hand_cam1``, for instance), read and checked as a camera's are.
+
+    Parameters
+    ----------
+    path : path-like
+        OpenCV YAML/XML/JSON written by ``cv2.FileStorage`` (an ``!!opencv-matrix``, a ROS
+        ``{rows, cols, data}`` mapping or a list, flat or nested).
+    key : str
+    shape : tuple of int
+        The matrix's shape; the key must hold exactly ``prod(shape)`` numbers.
+
+    Returns
+    -------
+    ndarray ``shape`` float64
+
+    Raises
+    ------
+    InputError
+        The file is missing or unreadable, lacks ``key``, or ``key`` holds other than
+        ``prod(shape)`` finite numbers.
+    """
+    calibration = _Calibration(path)
+    try:
+        found = calibration.numbers((key,), (int(np.prod(shape)),))
+    finally:
+        calibration.release()
+    assert found is not None   # required: raised when absent
+    return found[1].reshape(shape)
+
+
 def load_stereo(path: str | os.PathLike[str]) -> StereoRig:
     """Read the hand's stereo calibration (``K1``/``M1``, ``D1``, ``K2``/``M2``, ``D2``, ``R``,
     ``T``).
@@ -371,21 +387,6 @@ def load_stereo(path: str | os.PathLike[str]) -> StereoRig:
     return rig
 
 
-def _write_file_storage(path: Path, write: Callable[[cv2.FileStorage], None]) -> None:
-    """Replace ``path`` with what ``write`` writes to a ``cv2.FileStorage`` (format from the
-    suffix), atomically (:func:`~photomodel._files.write_atomic_with`)."""
-
-    def storage(tmp: Path) -> None:
-        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
-        try:
-            write(fs)
-        finally:
-            fs.release()
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic_with(path, storage)
-
-
 def save_camera(path: str | os.PathLike[str], camera: PinholeCamera,
                 distance_mm: float | None = None) -> None:
     """Write a single camera with ``cv2.FileStorage`` (format from the suffix: .yaml/.xml/.json)."""
@@ -399,7 +400,7 @@ def save_camera(path: str | os.PathLike[str], camera: PinholeCamera,
         if distance_mm is not None:
             fs.write("distance_mm", float(distance_mm))
 
-    _write_file_storage(Path(path), write)
+    write_file_storage(Path(path), write)
 
 
 def save_stereo(path: str | os.PathLike[str], rig: StereoRig) -> None:
@@ -416,4 +417,4 @@ def save_stereo(path: str | os.PathLike[str], rig: StereoRig) -> None:
         fs.write("R", rig.R)
         fs.write("T", rig.T.reshape(3, 1))
 
-    _write_file_storage(Path(path), write)
+    write_file_storage(Path(path), write)

@@ -49,14 +49,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from photomodel.cli._options import check_int
     from photomodel.errors import InputError
-    from photomodel.service._audit import ACTIONS, read_audit
+    from photomodel.service import AUDIT_ACTIONS, read_audit
 
     if args.last is not None:
         check_int("--last", args.last, 1)
     for action in args.action or ():
-        if action not in ACTIONS:
+        if action not in AUDIT_ACTIONS:
             raise InputError("--action", f"unknown action {action[:40]!r} (expected one of "
-                                         f"{', '.join(ACTIONS)})")
+                                         f"{', '.join(AUDIT_ACTIONS)})")
     since = None if args.since is None else _utc(args.since, "--since")
     path = args.log if args.log is not None else args.models / AUDIT_IN_LIBRARY
     actions = None if args.action is None else set(args.action)

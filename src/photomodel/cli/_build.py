@@ -19,12 +19,12 @@ _OPTIONS = {"step_mm": "--step-mm", "band_gap_mm": "--band-gap-mm",
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from photomodel.model._config import DEFAULT_STATION_DISTANCE_MM, RANGES, BuildConfig
+    from photomodel.model import BUILD_RANGES, DEFAULT_STATION_DISTANCE_MM, BuildConfig
 
     d = BuildConfig()
 
     def span(key: str) -> str:
-        lo, hi = RANGES[key]
+        lo, hi = BUILD_RANGES[key]
         return f"{lo:g} to {hi:g}, default {getattr(d, key):g}"
 
     p = sub.add_parser("build", help="build a photo-model from a garment photo",
@@ -72,10 +72,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from photomodel._limits import MAX_DISTANCE_MM
     from photomodel.cli._options import as_option_error, check_float
     from photomodel.library import check_model_name
     from photomodel.model import BuildConfig
-    from photomodel.model._build import MAX_DISTANCE_MM
 
     mode = _mode(args)
     if args.out.is_dir():
@@ -136,11 +136,11 @@ def _mode(args: argparse.Namespace) -> str:
 
 
 def _station(args: argparse.Namespace, config: Any, name: str) -> tuple[Any, Any, str]:
+    from photomodel._limits import MAX_DISTANCE_MM
     from photomodel.camera import load_camera, load_distance_mm
     from photomodel.cli._options import as_option_error
     from photomodel.image import read_color_image
     from photomodel.model import DEFAULT_STATION_DISTANCE_MM, build_photo_model
-    from photomodel.model._build import MAX_DISTANCE_MM
 
     camera = load_camera(args.camera)
     distance = args.distance_mm if args.distance_mm is not None else load_distance_mm(args.camera)

@@ -74,8 +74,7 @@ def run(args: argparse.Namespace) -> int:
     check_seed(args.seed)
     check_float("--tolerance-mm", args.tolerance_mm, 0.0, MAX_TOLERANCE_MM, lo_open=True,
                 unit="mm")
-    from photomodel.sim import parse_conditions
-    from photomodel.sim._catalogue import expand_garments
+    from photomodel.sim import expand_garments, parse_conditions
 
     if args.tables is not None:
         return _run_tables(args)

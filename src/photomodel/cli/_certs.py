@@ -1,5 +1,5 @@
 """``photomodel certs``: a CA and the service's and an OPC UA client's certificates, for a plant
-without its own PKI (the work is :func:`photomodel.service._certs.make_certs`)."""
+without its own PKI (the work is :func:`photomodel.service.make_certs`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from photomodel.service._certs import CertFiles
+    from photomodel.service import CertFiles
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     except ImportError:
         raise InputError("certs", "needs the Python package 'cryptography' (pip install "
                                   "'cryptography>=42')") from None
-    from photomodel.service._certs import make_certs
+    from photomodel.service import make_certs
 
     files = make_certs(args.out, list(args.host), days=args.days, ca_days=args.ca_days,
                        force=args.force)

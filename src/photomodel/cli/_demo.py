@@ -44,7 +44,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from photomodel.cli._main import main
     from photomodel.cli._options import check_seed
-    from photomodel.sim._calibration import CALIBRATION_BOARD
+    from photomodel.sim import CALIBRATION_BOARD
 
     check_seed(args.seed)
     out: Path = args.out

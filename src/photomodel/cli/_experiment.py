@@ -104,7 +104,7 @@ def _check_common(args: argparse.Namespace) -> None:
 def _run_directory(out: Path, files: tuple[str, ...]) -> Iterator[None]:
     """Hold ``out``'s run lock around a run and its report (a second run into ``out`` is
     refused); a directory made here that got no record is removed again on failure."""
-    from photomodel.experiments._run import run_directory
+    from photomodel.experiments import run_directory
 
     with run_directory(out, files):
         yield

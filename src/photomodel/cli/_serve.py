@@ -92,12 +92,17 @@ def run(args: argparse.Namespace) -> int:
     if not (args.max_skew_ms >= 0 and args.max_skew_ms <= 10_000):
         raise InputError("--max-skew-ms", f"expected 0 to 10000 ms, got {args.max_skew_ms:g}")
     if args.source is not None:
-        from photomodel.service._source import parse_source_spec
+        from photomodel.service import parse_source_spec
 
         parse_source_spec(args.source)     # a bad spec before anything is loaded
-    from photomodel.service._auth import read_tokens
-    from photomodel.service._cell import CellService, ServiceConfig, exposure_warning
-    from photomodel.service._server import is_loopback, serve
+    from photomodel.service import (
+        CellService,
+        ServiceConfig,
+        exposure_warning,
+        is_loopback,
+        read_tokens,
+        serve,
+    )
 
     if args.token_file is not None:
         read_tokens(args.token_file)                  # a bad file before anything is loaded
@@ -113,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
                            threshold=args.threshold_file, prepared_models=args.prepared_models,
                            source=args.source, max_skew_ms=args.max_skew_ms,
                            record_dir=args.record_dir)
-    from photomodel.service._source import SourceError
+    from photomodel.service import SourceError
 
     try:
         cell = CellService(config)
@@ -148,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _tls(args: argparse.Namespace) -> Any:
     """The checked ``--tls-cert``/``--tls-key`` pair, or None."""
-    from photomodel.service._server import TlsFiles
+    from photomodel.service import TlsFiles
 
     if (args.tls_cert is None) != (args.tls_key is None):
         missing = "--tls-key" if args.tls_key is None else "--tls-cert"
@@ -185,7 +190,7 @@ def _start_opcua(cell: Any, host: str, port: int, tokens: Any = None, tls: Any =
         audit = getattr(cell, "audit", None)
     token = tokens if isinstance(tokens, str) else None
     try:
-        from photomodel.service._opcua import OpcUaFace, run_opcua_in_thread
+        from photomodel.service import OpcUaFace, run_opcua_in_thread
 
         def locate(model: str) -> dict[str, Any]:   # on the searches' threads: one team
             return cell.threads.call(partial(cell.trigger_locate, model))
@@ -194,7 +199,7 @@ def _start_opcua(cell: Any, host: str, port: int, tokens: Any = None, tls: Any =
             return cell.threads.call(cell.trigger_identify)
 
         def register(name: str) -> dict[str, Any]:
-            from photomodel.service._register import register_from_camera
+            from photomodel.service import register_from_camera
 
             return cell.threads.call(partial(register_from_camera, cell, name))
 

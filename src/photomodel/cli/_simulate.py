@@ -118,18 +118,20 @@ def _run_dataset(args: argparse.Namespace) -> int:
     from photomodel.image import write_image
     from photomodel.sim import (
         CONDITIONS,
+        MAX_CATALOGUE,
+        MAX_SCENES,
+        catalogue_names,
+        check_garment_name,
         contact_sheet,
         expand_garments,
         load_garment,
         parse_conditions,
         write_dataset,
     )
-    from photomodel.sim._dataset import MAX_SCENES, check_garment_name
-    from photomodel.sim._random_catalogue import MAX_CATALOGUE, catalogue_names
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
     if args.table is not None:
-        from photomodel.sim._table import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS
+        from photomodel.sim import MAX_TABLE_GARMENTS, MIN_TABLE_GARMENTS
 
         check_int("--table", args.table, MIN_TABLE_GARMENTS, MAX_TABLE_GARMENTS)
     library: tuple[str, ...] = ()
@@ -137,7 +139,7 @@ def _run_dataset(args: argparse.Namespace) -> int:
         library = catalogue_names(check_int("--catalogue", args.catalogue, 1, MAX_CATALOGUE))
     check_seed(args.seed)
     if args.calibration_views != 0:
-        from photomodel.sim._calibration import MAX_CALIBRATION_VIEWS, MIN_CALIBRATION_VIEWS
+        from photomodel.sim import MAX_CALIBRATION_VIEWS, MIN_CALIBRATION_VIEWS
 
         if not MIN_CALIBRATION_VIEWS <= args.calibration_views <= MAX_CALIBRATION_VIEWS:
             raise InputError("--calibration-views",
@@ -172,7 +174,7 @@ def _run_dataset(args: argparse.Namespace) -> int:
     if args.contact_sheet is not None and args.contact_sheet.suffix.lower() != ".png":
         raise InputError(args.contact_sheet, "contact sheet must be a .png file")
     if args.labels:
-        from photomodel.image._barcode import zxing
+        from photomodel.image import zxing
 
         zxing("--labels")   # one line before anything is simulated when it is missing
     try:
@@ -210,7 +212,7 @@ def _frame_rates(text: str) -> list[float]:
     """The frame rates of an ``--fps`` value (``30,60``); InputError naming ``--fps``."""
     import math
 
-    from photomodel.sim._sequences import MAX_FPS
+    from photomodel.sim import MAX_FPS
 
     rates = []
     for part in _split(text):
@@ -232,8 +234,13 @@ def _run_sequences(args: argparse.Namespace) -> int:
     """``simulate --sequences``: validate the options, then :func:`write_sequences`."""
     from photomodel.cli._options import as_option_error, check_float, check_seed
     from photomodel.cli._progress import count_progress
-    from photomodel.sim import expand_garments, write_sequences
-    from photomodel.sim._sequences import CONVEYOR_MM_S_RANGE, MAX_SECONDS, SEQUENCE_KINDS
+    from photomodel.sim import (
+        CONVEYOR_MM_S_RANGE,
+        MAX_SECONDS,
+        SEQUENCE_KINDS,
+        expand_garments,
+        write_sequences,
+    )
 
     for option, given in (("--scenes", args.scenes is not None),
                           ("--conditions", args.conditions is not None),

@@ -22,7 +22,7 @@ __getattr__, __dir__, _ = lazy_loader.attach(
             "write_identify_report",
         ],
         "_records": ["COLUMNS", "append_records", "done_trial_ids", "read_records"],
-        "_run": ["run_experiment", "run_metadata"],
+        "_run": ["run_directory", "run_experiment", "run_metadata"],
         "_stats": [
             "PAPER_TABLE1",
             "AxisError",
@@ -65,6 +65,7 @@ __all__ = [
     "plan_trials",
     "read_identify_records",
     "read_records",
+    "run_directory",
     "run_experiment",
     "run_identify_experiment",
     "run_identify_trial",

@@ -1,29 +1,23 @@
-"""Guards of a run directory and of the processes that work for it.
-
-:func:`run_lock` lets one run at a time write a run directory: a second ``photomodel
-experiment`` into the same ``--out`` is refused with one line naming the directory and the
-pid of the run that holds it, instead of both appending every record. The lock is an
+"""The guard of a run directory: :func:`run_lock` lets one run at a time write it. A second
+``photomodel experiment`` into the same ``--out`` is refused with one line naming the directory
+and the pid of the run that holds it, instead of both appending every record. The lock is an
 exclusive ``flock`` on ``DIR/.lock``; the kernel releases it when its process ends, however it
 ends (``kill -9`` included), so a dead run never blocks the next one.
 
-:func:`die_with_parent` makes a worker process end when the run that started it ends, so that
-a run killed with ``kill -9`` leaves no worker (and, through them, no resource tracker) behind.
+The workers of a run end with it through :func:`photomodel._process.die_with_parent`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-import signal
-import sys
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 from photomodel.errors import InputError
 
-__all__ = ["LOCK_NAME", "die_with_parent", "run_lock"]
+__all__ = ["LOCK_NAME", "run_lock"]
 
 LOCK_NAME = ".lock"
 """The lock file of a run directory."""
@@ -93,28 +87,3 @@ def _read_pid(fd: int) -> int | None:
         return int(text) if text.isdigit() else None
     except OSError:
         return None
-
-
-def die_with_parent(parent_pid: int, poll_s: float = 0.5) -> None:
-    """End this process as soon as its parent ``parent_pid`` ends (a pool worker's initialiser).
-
-    On Linux the kernel sends SIGKILL when the parent dies (``prctl(PR_SET_PDEATHSIG)``);
-    everywhere, a daemon thread checks every ``poll_s`` seconds that the parent is still the
-    parent (an orphan is adopted by another process) and ends this process otherwise.
-    """
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1 = PR_SET_PDEATHSIG
-    if os.getppid() != parent_pid:   # the parent died before the line above took effect
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(poll_s)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="photomodel-parent-watch", daemon=True).start()

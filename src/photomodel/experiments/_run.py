@@ -28,8 +28,9 @@ from pathlib import Path
 from typing import Any
 
 from photomodel._files import write_atomic
+from photomodel._process import die_with_parent
 from photomodel.errors import InputError, one_line_input_warnings
-from photomodel.experiments._lock import LOCK_NAME, die_with_parent, run_lock
+from photomodel.experiments._lock import LOCK_NAME, run_lock
 from photomodel.experiments._records import append_records, done_trial_ids
 from photomodel.experiments._trials import (
     ExperimentConfig,
@@ -39,7 +40,7 @@ from photomodel.experiments._trials import (
     run_trial,
 )
 
-__all__ = ["RunSummary", "run_experiment", "run_metadata"]
+__all__ = ["RunSummary", "run_directory", "run_experiment", "run_metadata"]
 
 RunSummary = dict[str, Any]
 Progress = Callable[[int, int, str], None]
@@ -122,7 +123,7 @@ def pool_stream(run: Callable[[Any, Any], dict[str, Any]], config: Any, trials: 
 
     Workers are spawned (no inherited numba threads), limited by
     :func:`~photomodel.experiments._trials.limit_threads` and end when this process ends,
-    however it ends (:func:`~photomodel.experiments._lock.die_with_parent`); leaving the loop
+    however it ends (:func:`~photomodel._process.die_with_parent`); leaving the loop
     early cancels the trials not yet started.
     """
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),

@@ -41,8 +41,7 @@ from skimage.measure import find_contours
 
 from photomodel.camera import PinholeCamera
 from photomodel.fitness._prepared import Kept, PreparedModel, as_prepared
-from photomodel.image._features import linear_intensity, log_opponent
-from photomodel.image._sample import sample_bilinear
+from photomodel.image import linear_intensity, log_opponent, sample_bilinear
 from photomodel.model import PhotoModel
 
 __all__ = ["ModelSamples", "SampleDrawer", "SampleSpacing", "model_samples"]

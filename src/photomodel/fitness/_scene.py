@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel.fitness._soft import StereoFeatures
-from photomodel.model._descriptor import COLOUR_BIN, soft_colour_histogram
+from photomodel.model import COLOUR_BIN, soft_colour_histogram
 
 __all__ = ["SCENE_LEVEL", "Region", "SceneConfig", "SceneRegions", "scene_regions"]
 

@@ -45,7 +45,7 @@ from photomodel.fitness._samples import ModelSamples, SampleSpacing, model_sampl
 from photomodel.fitness._soft_jacobian import soft_normal_equations
 from photomodel.fitness._soft_kernels import soft_colourings_terms, soft_fitness_terms
 from photomodel.geometry import pose_vectors_to_matrices
-from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.image import feature_pyramid, log_opponent
 from photomodel.model import PhotoModel
 
 __all__ = ["SoftFitness", "SoftMatch", "StereoFeatures"]

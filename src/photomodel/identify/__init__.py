@@ -5,7 +5,7 @@ compared with every model's descriptor (:mod:`._bank`: milliseconds for thousand
 models), the best-screened are
 located with the default ``soft`` method in features computed once (:mod:`._identify`), and
 the best is accepted against the threshold calibrated on simulated scenes
-(:mod:`photomodel.locate._threshold`: the library's, the user's or the package's
+(:func:`photomodel.locate.load_threshold`: the library's, the user's or the package's
 ``threshold.json``; ``photomodel experiment --identify --calibrate`` re-derives it).
 :class:`Identifier` holds a library for one rig, its models prepared on first use
 (:class:`PreparedModels`), and reads the garment's label beside the photo-model's answer
@@ -16,7 +16,7 @@ zxing-cpp, named by the library's label map).
 import lazy_loader
 
 from photomodel.fitness import Region, SceneConfig, SceneRegions, scene_regions
-from photomodel.locate._threshold import (
+from photomodel.locate import (
     THRESHOLD_FILE,
     Threshold,
     calibrate_threshold,

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from photomodel._jit import njit
 from photomodel.fitness import SceneRegions
-from photomodel.model._descriptor import (
+from photomodel.model import (
     COLOUR_BIN,
     COLOUR_GRID_LOW,
     COLOUR_GRID_SHAPE,

@@ -27,7 +27,7 @@ from photomodel.identify._identify import (
 )
 from photomodel.identify._labels import LabelRead, check_label, read_labels
 from photomodel.identify._table import TableConfig, TableResult, identify_all
-from photomodel.image._barcode import EXTRA_HINT, zxing_available
+from photomodel.image import EXTRA_HINT, zxing_available
 from photomodel.library import LibraryEntry, ModelLibrary
 from photomodel.locate import LocateResult, Locator, load_threshold
 from photomodel.model import PhotoModel

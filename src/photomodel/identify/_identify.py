@@ -64,10 +64,14 @@ from photomodel.fitness import (
 )
 from photomodel.identify._bank import BankConfig, DescriptorBank
 from photomodel.identify._labels import LabelCheck
-from photomodel.locate import COARSE_SCAN, LocateResult, LocateSettings, locate_in_features
-from photomodel.locate._threshold import load_threshold
-from photomodel.model import PhotoModel
-from photomodel.model._descriptor import ModelDescriptor, describe_model
+from photomodel.locate import (
+    COARSE_SCAN,
+    LocateResult,
+    LocateSettings,
+    load_threshold,
+    locate_in_features,
+)
+from photomodel.model import ModelDescriptor, PhotoModel, describe_model
 from photomodel.search import SearchSpace
 
 __all__ = ["Candidate", "IdentifyConfig", "IdentifyResult", "identify", "identify_in_features",

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel.image._barcode import LINEAR_FORMATS, Barcode, decode_barcodes
+from photomodel.image import LINEAR_FORMATS, Barcode, decode_barcodes
 from photomodel.locate import LocateResult
 
 __all__ = ["LINEAR_TURNS_DEG", "READ_FORMATS", "LabelCheck", "LabelRead", "check_label",

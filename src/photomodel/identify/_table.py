@@ -42,7 +42,7 @@ from photomodel.fitness import (
 from photomodel.identify._bank import DescriptorBank
 from photomodel.identify._identify import IdentifyConfig, identify_with_bank
 from photomodel.locate import LocateResult, load_threshold
-from photomodel.model._descriptor import HAND_MM_PER_PX
+from photomodel.model import HAND_MM_PER_PX
 from photomodel.search import SearchSpace
 
 __all__ = ["Appearance", "TableConfig", "TableGarment", "TableResult", "identify_all"]

@@ -61,8 +61,7 @@ from numpy.typing import NDArray
 
 from photomodel._files import write_atomic
 from photomodel.errors import InputError
-from photomodel.model import PhotoModel, load_model, save_model
-from photomodel.model._descriptor import ModelDescriptor, describe_model
+from photomodel.model import ModelDescriptor, PhotoModel, describe_model, load_model, save_model
 
 __all__ = [
     "INDEX_NAME",

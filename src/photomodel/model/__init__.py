@@ -6,8 +6,10 @@ __getattr__, __dir__, _ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "_build": ["BuildQuality", "BuildResult", "build_model", "build_photo_model"],
-        "_config": ["DEFAULT_STATION_DISTANCE_MM", "BuildConfig"],
-        "_descriptor": ["DESCRIPTOR_VERSION", "ModelDescriptor", "describe_model"],
+        "_config": ["BUILD_RANGES", "DEFAULT_STATION_DISTANCE_MM", "BuildConfig"],
+        "_descriptor": ["COLOUR_BIN", "COLOUR_GRID_LOW", "COLOUR_GRID_SHAPE", "DESCRIPTOR_VERSION",
+                        "HAND_MM_PER_PX", "ModelDescriptor", "describe_model",
+                        "soft_colour_histogram"],
         "_in_place": ["InPlaceBuild", "TablePlane", "build_in_place", "measure_plane"],
         "_photomodel": ["FORMAT_VERSION", "PhotoModel", "load_model", "save_model"],
         "_preview": ["render_preview"],
@@ -17,9 +19,14 @@ __getattr__, __dir__, _ = lazy_loader.attach(
 )
 
 __all__ = [
+    "BUILD_RANGES",
+    "COLOUR_BIN",
+    "COLOUR_GRID_LOW",
+    "COLOUR_GRID_SHAPE",
     "DEFAULT_STATION_DISTANCE_MM",
     "DESCRIPTOR_VERSION",
     "FORMAT_VERSION",
+    "HAND_MM_PER_PX",
     "MAX_SCALE",
     "BuildConfig",
     "BuildQuality",
@@ -42,4 +49,5 @@ __all__ = [
     "save_model",
     "scale_known",
     "scaled_model",
+    "soft_colour_histogram",
 ]

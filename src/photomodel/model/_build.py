@@ -62,6 +62,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from photomodel._limits import MAX_DISTANCE_MM
 from photomodel.camera import PinholeCamera
 from photomodel.errors import InputError, InputWarning, NoGarmentError
 from photomodel.image import bgr_to_hsv, circular_mean_hue_deg, hue_distance_deg, sample_bilinear
@@ -70,9 +71,6 @@ from photomodel.model._photomodel import PhotoModel
 
 __all__ = ["BuildConfig", "BuildQuality", "BuildResult", "build_model", "build_photo_model"]
 
-MAX_DISTANCE_MM = 100_000.0
-"""Farthest camera-to-plane distance taken, mm (a model station: about
-:data:`DEFAULT_STATION_DISTANCE_MM`)."""
 MIN_POINTS = 8
 """Fewest S_in and S_out points a model needs (``step_mm`` too large for a garment leaves
 fewer)."""
@@ -192,6 +190,34 @@ def build_photo_model(
         More than ``plane_share_warning`` of the silhouette has the plane's colour.
     """
     cfg = config or BuildConfig()
+    _check_inputs(photo_bgr, background_bgr, camera, distance_mm, photo_source,
+                  background_source)
+    photos = _Photos.smoothed(photo_bgr, background_bgr, cfg, background_source)
+    mask, hue_mask, features = _silhouette(photos, cfg)
+    area_mm2 = _check_silhouette(mask, camera, distance_mm, photos.plane_hue_deg, cfg,
+                                 photo_source)
+    centroid, area = _area_centroid(mask, camera, distance_mm)
+    quality = _warn_on_plane_colour(
+        _quality(mask, hue_mask, features, photos, camera, distance_mm, centroid, area),
+        cfg, photo_source)
+    points_in, points_out, uv_in, uv_out, outline_uv, outline = _sample(
+        mask, camera, distance_mm, centroid, cfg)
+    meta = _meta(photos, camera, distance_mm, centroid, area_mm2, quality, cfg, photo_source,
+                 background_source)
+    photo_crop, mask_crop, crop_origin = _crop(photo_bgr, mask, cfg.crop_margin_px)
+    model = PhotoModel(name=name, points_in_mm=points_in,
+                       hsv_in=bgr_to_hsv(sample_bilinear(photos.photo, uv_in)),
+                       points_out_mm=points_out, outline_mm=outline, photo_bgr=photo_crop,
+                       mask=mask_crop, crop_origin_px=crop_origin, meta=meta)
+    return BuildResult(model, mask.astype(bool), uv_in, uv_out, outline_uv, quality)
+
+
+def _check_inputs(photo_bgr: NDArray[np.uint8], background_bgr: NDArray[np.uint8],
+                  camera: PinholeCamera, distance_mm: float,
+                  photo_source: str | os.PathLike[str],
+                  background_source: str | os.PathLike[str]) -> None:
+    """Raise where the photos' sizes (H, W, 3) differ, the camera's calibrated size is not
+    the photo's, or ``distance_mm`` is not in (0, :data:`MAX_DISTANCE_MM`]."""
     if photo_bgr.shape != background_bgr.shape:
         raise InputError(background_source, f"size {background_bgr.shape[1]}x"
                          f"{background_bgr.shape[0]} differs from the photo's "
@@ -200,57 +226,102 @@ def build_photo_model(
     if not (np.isfinite(distance_mm) and 0 < distance_mm <= MAX_DISTANCE_MM):
         raise ValueError(f"distance_mm: expected a distance above 0 to {MAX_DISTANCE_MM:g} mm, "
                          f"got {distance_mm:g}")
-    h, w = photo_bgr.shape[:2]
-    smooth_background = _smooth(background_bgr, cfg.smooth_sigma_px)
-    hsv_bg = bgr_to_hsv(smooth_background)
-    smooth_photo = _smooth(photo_bgr, cfg.smooth_sigma_px)
-    hsv = bgr_to_hsv(smooth_photo)
 
-    bg_sat = float(np.median(hsv_bg[..., 1]))
-    bg_val = float(np.median(hsv_bg[..., 2]))
-    chromatic_plane = bg_sat >= 0.15
-    if not chromatic_plane and not cfg.background_compare:
-        raise InputError(background_source, f"the plane has no clear hue (median saturation "
-                         f"{bg_sat:.2f}); the hue rule alone needs a coloured (green) plane: "
-                         f"compare with the background photo (drop --hue-only)")
-    bg_hue = (circular_mean_hue_deg(hsv_bg[..., 0], weights=hsv_bg[..., 1])
-              if chromatic_plane else None)
 
-    by_hue = np.zeros((h, w), np.uint8)
-    if bg_hue is not None:
-        by_hue = (
-            (hue_distance_deg(hsv[..., 0], bg_hue) > cfg.hue_threshold_deg)
-            | (hsv[..., 1] < cfg.achromatic_fraction * bg_sat)
-            | (hsv[..., 2] < cfg.dark_fraction * bg_val)
-        ).astype(np.uint8)
+@dataclass(frozen=True)
+class _Photos:
+    """Steps 1-2 of the module docstring: both photos smoothed (H, W, 3) uint8, the garment
+    photo's HSV (H, W, 3) (hue in deg, saturation and value 0-1) and the plane's colour (the
+    background photo's median saturation and value, 0-1, and its saturation-weighted circular
+    mean hue in deg, None on a plane without hue)."""
+
+    photo: NDArray[np.uint8]
+    background: NDArray[np.uint8]
+    hsv: NDArray[np.float32]
+    plane_sat: float
+    plane_val: float
+    plane_hue_deg: float | None
+
+    @classmethod
+    def smoothed(cls, photo_bgr: NDArray[np.uint8], background_bgr: NDArray[np.uint8],
+                 cfg: BuildConfig, background_source: str | os.PathLike[str]) -> _Photos:
+        """Smooth and convert both photos; raise ``InputError`` where the plane has no hue
+        and the hue rule must work alone (``background_compare`` off)."""
+        smooth_background = _smooth(background_bgr, cfg.smooth_sigma_px)
+        hsv_bg = bgr_to_hsv(smooth_background)
+        smooth_photo = _smooth(photo_bgr, cfg.smooth_sigma_px)
+        hsv = bgr_to_hsv(smooth_photo)
+        bg_sat = float(np.median(hsv_bg[..., 1]))
+        bg_val = float(np.median(hsv_bg[..., 2]))
+        chromatic_plane = bg_sat >= 0.15
+        if not chromatic_plane and not cfg.background_compare:
+            raise InputError(background_source, f"the plane has no clear hue (median "
+                             f"saturation {bg_sat:.2f}); the hue rule alone needs a coloured "
+                             f"(green) plane: compare with the background photo (drop "
+                             f"--hue-only)")
+        bg_hue = (circular_mean_hue_deg(hsv_bg[..., 0], weights=hsv_bg[..., 1])
+                  if chromatic_plane else None)
+        return cls(smooth_photo, smooth_background, hsv, bg_sat, bg_val, bg_hue)
+
+
+def _hue_rule(photos: _Photos, cfg: BuildConfig) -> NDArray[np.uint8]:
+    """The paper's rule (step 3): 1 (H, W) where the garment photo's hue is far from the
+    plane's, or it is achromatic or dark against the plane; all 0 on a plane without hue."""
+    if photos.plane_hue_deg is None:
+        return np.zeros(photos.photo.shape[:2], np.uint8)
+    hsv = photos.hsv
+    return (
+        (hue_distance_deg(hsv[..., 0], photos.plane_hue_deg) > cfg.hue_threshold_deg)
+        | (hsv[..., 1] < cfg.achromatic_fraction * photos.plane_sat)
+        | (hsv[..., 2] < cfg.dark_fraction * photos.plane_val)
+    ).astype(np.uint8)
+
+
+_Features = tuple[NDArray[np.float32], NDArray[np.float32]]
+"""Log-opponent colours (H, W, 3) of the smoothed photo and background photo."""
+
+
+def _silhouette(photos: _Photos, cfg: BuildConfig
+                ) -> tuple[NDArray[np.uint8], NDArray[np.uint8] | None, _Features | None]:
+    """Steps 3-4: the garment mask (H, W) of 0 and 1, what the hue rule alone gives (None on
+    a plane without hue; the mask itself where the per-pixel rule adds nothing), and both
+    photos' log-opponent colours (None when the hue rule works alone)."""
+    by_hue = _hue_rule(photos, cfg)
 
     def outline(garment: NDArray[np.uint8], shading: bool = False) -> NDArray[np.uint8]:
         m = _clean_mask(garment)
         if cfg.mixing_edge and m.any():
-            m = _mixing_edge(m, smooth_photo, smooth_background,
+            m = _mixing_edge(m, photos.photo, photos.background,
                              min_contrast=cfg.mixing_min_contrast, shading=shading)
         return m
 
-    feat_photo = feat_bg = None
     if not cfg.background_compare:   # the paper's rule alone (the plane has a hue: see above)
-        mask = hue_mask = outline(by_hue)
-    else:
-        feat_photo, feat_bg = _log_opponent(smooth_photo), _log_opponent(smooth_background)
-        # Only regions the hue rule misses, at least ADDED_MIN_PX wide: the thin halo the
-        # per-pixel rule sees around every garment (its blurred edge, a tenth garment and
-        # more) would otherwise move the outline outwards and bias the mixing edge.
-        added = _differs_from_plane(feat_photo, feat_bg, cfg) & (1 - by_hue)
-        added = cv2.morphologyEx(added, cv2.MORPH_OPEN, cv2.getStructuringElement(
-            cv2.MORPH_ELLIPSE, (ADDED_MIN_PX, ADDED_MIN_PX)))
-        mask = outline(by_hue | added, shading=True)
-        # What the hue rule alone gives, for the quality report: the same regions when the
-        # per-pixel rule adds none.
-        hue_mask = None if bg_hue is None else outline(by_hue) if added.any() else mask
+        mask = outline(by_hue)
+        return mask, mask, None
+    feat_photo, feat_bg = _log_opponent(photos.photo), _log_opponent(photos.background)
+    # Only regions the hue rule misses, at least ADDED_MIN_PX wide: the thin halo the
+    # per-pixel rule sees around every garment (its blurred edge, a tenth garment and
+    # more) would otherwise move the outline outwards and bias the mixing edge.
+    added = _differs_from_plane(feat_photo, feat_bg, cfg) & (1 - by_hue)
+    added = cv2.morphologyEx(added, cv2.MORPH_OPEN, cv2.getStructuringElement(
+        cv2.MORPH_ELLIPSE, (ADDED_MIN_PX, ADDED_MIN_PX)))
+    mask = outline(by_hue | added, shading=True)
+    # What the hue rule alone gives, for the quality report: the same regions when the
+    # per-pixel rule adds none.
+    hue_mask = None if photos.plane_hue_deg is None else outline(by_hue) if added.any() else mask
+    return mask, hue_mask, (feat_photo, feat_bg)
 
+
+def _check_silhouette(mask: NDArray[np.uint8], camera: PinholeCamera, distance_mm: float,
+                      plane_hue_deg: float | None, cfg: BuildConfig,
+                      photo_source: str | os.PathLike[str]) -> float:
+    """The silhouette's area, mm^2 (pixels at the mean scale of the plane); raise
+    ``NoGarmentError`` under ``cfg.min_area_mm2`` and ``InputError`` where ``mask`` (H, W)
+    touches the photo's border."""
     px_per_mm = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])) / distance_mm
     area_mm2 = mask.sum() / px_per_mm**2
     if area_mm2 < cfg.min_area_mm2:
-        plane = (f"the plane's hue ({bg_hue:.0f} deg)" if bg_hue is not None
+        plane = (f"the plane's hue ({plane_hue_deg:.0f} deg)" if plane_hue_deg is not None
                  else "the plane (it has no hue)")
         raise NoGarmentError(photo_source, f"no garment found: nothing larger than "
                              f"{cfg.min_area_mm2:.0f} mm^2 differs from {plane}")
@@ -258,34 +329,46 @@ def build_photo_model(
     if border.sum() > 2:
         raise InputError(photo_source, "the garment touches the photo's border, so its outline "
                          "is cut; centre it or raise the camera")
+    return area_mm2
 
-    # Pixel -> plane (mm, model-camera frame); area-weighted centroid of the silhouette.
+
+def _area_centroid(mask: NDArray[np.uint8], camera: PinholeCamera, distance_mm: float
+                   ) -> tuple[NDArray[np.float64], float]:
+    """The area-weighted centroid (2,) of silhouette ``mask`` (H, W) on the plane (mm, model
+    camera's frame; each pixel weighted by its area on the plane) and its area, mm^2."""
     vv, uu = np.nonzero(mask)
     uv_mask = np.stack([uu, vv], axis=-1).astype(np.float64)
     xy_mask = camera.undistort_pixels(uv_mask) * distance_mm
     pixel_area = _pixel_area_mm2(camera, uv_mask, distance_mm)
-    centroid = (xy_mask * pixel_area[:, None]).sum(axis=0) / pixel_area.sum()
-    quality = _quality(mask, hue_mask, feat_photo, feat_bg, smooth_photo, smooth_background,
-                       camera, distance_mm, centroid, pixel_area.sum())
-    if quality.plane_colour_share > cfg.plane_share_warning:
-        moved = ("" if quality.hue_rule_shift_mm is None else
-                 f", the hue rule alone would move it {quality.hue_rule_shift_mm:.1f} mm")
-        problem = (f"{100 * quality.plane_colour_share:.0f} % of the garment has the plane's "
-                   f"colour: only the comparison with the background photo finds it{moved}; "
-                   f"keep light and camera fixed between the two photos, or use a plane of "
-                   f"another colour")
-        quality = BuildQuality(quality.plane_colour_share, quality.hue_rule_shift_mm,
-                               quality.hue_rule_area_ratio, f"{Path(photo_source).name}: "
-                                                            f"{problem}")
-        warnings.warn(InputWarning(photo_source, problem), stacklevel=2)
+    return (xy_mask * pixel_area[:, None]).sum(axis=0) / pixel_area.sum(), pixel_area.sum()
 
-    points_in, points_out, uv_in, uv_out, outline_uv, outline = _sample(
-        mask, camera, distance_mm, centroid, cfg)
-    hsv_in = bgr_to_hsv(sample_bilinear(smooth_photo, uv_in))
 
-    x0, y0 = max(uu.min() - cfg.crop_margin_px, 0), max(vv.min() - cfg.crop_margin_px, 0)
-    x1, y1 = min(uu.max() + cfg.crop_margin_px + 1, w), min(vv.max() + cfg.crop_margin_px + 1, h)
-    meta = {
+def _warn_on_plane_colour(quality: BuildQuality, cfg: BuildConfig,
+                          photo_source: str | os.PathLike[str]) -> BuildQuality:
+    """``quality``, with its warning issued (:class:`~photomodel.errors.InputWarning`, to
+    :func:`build_photo_model`'s caller) where over ``cfg.plane_share_warning`` of the
+    silhouette has the plane's colour."""
+    if quality.plane_colour_share <= cfg.plane_share_warning:
+        return quality
+    moved = ("" if quality.hue_rule_shift_mm is None else
+             f", the hue rule alone would move it {quality.hue_rule_shift_mm:.1f} mm")
+    problem = (f"{100 * quality.plane_colour_share:.0f} % of the garment has the plane's "
+               f"colour: only the comparison with the background photo finds it{moved}; "
+               f"keep light and camera fixed between the two photos, or use a plane of "
+               f"another colour")
+    warnings.warn(InputWarning(photo_source, problem), stacklevel=3)
+    return BuildQuality(quality.plane_colour_share, quality.hue_rule_shift_mm,
+                        quality.hue_rule_area_ratio, f"{Path(photo_source).name}: {problem}")
+
+
+def _meta(photos: _Photos, camera: PinholeCamera, distance_mm: float,
+          centroid: NDArray[np.float64], area_mm2: float, quality: BuildQuality,
+          cfg: BuildConfig, photo_source: str | os.PathLike[str],
+          background_source: str | os.PathLike[str]) -> dict[str, object]:
+    """The model's metadata: when and from what it was built (``centroid`` (2,), mm, in the
+    model camera's frame), its area (mm^2), its quality and its settings."""
+    h, w = photos.photo.shape[:2]
+    return {
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "photo": Path(photo_source).name,
         "background": Path(background_source).name,
@@ -293,7 +376,7 @@ def build_photo_model(
         "camera_K": camera.K.tolist(),
         "camera_dist": camera.dist.tolist(),
         "photo_size_px": [w, h],
-        "background_hue_deg": bg_hue,
+        "background_hue_deg": photos.plane_hue_deg,
         "centroid_in_camera_mm": [float(centroid[0]), float(centroid[1]), float(distance_mm)],
         "area_mm2": float(area_mm2),
         "plane_colour_share": quality.plane_colour_share,
@@ -301,18 +384,18 @@ def build_photo_model(
         "hue_rule_area_ratio": quality.hue_rule_area_ratio,
         "build_config": asdict(cfg),
     }
-    model = PhotoModel(
-        name=name,
-        points_in_mm=points_in,
-        hsv_in=hsv_in,
-        points_out_mm=points_out,
-        outline_mm=outline,
-        photo_bgr=np.ascontiguousarray(photo_bgr[y0:y1, x0:x1]),
-        mask=np.ascontiguousarray(mask[y0:y1, x0:x1]),
-        crop_origin_px=np.array([x0, y0], dtype=np.int64),
-        meta=meta,
-    )
-    return BuildResult(model, mask.astype(bool), uv_in, uv_out, outline_uv, quality)
+
+
+def _crop(photo_bgr: NDArray[np.uint8], mask: NDArray[np.uint8], margin_px: int
+          ) -> tuple[NDArray[np.uint8], NDArray[np.uint8], NDArray[np.int64]]:
+    """The photo (h, w, 3) and mask (h, w) cropped to the silhouette with ``margin_px``
+    around it (within the photo), and the crop's top-left pixel (2,) (u, v)."""
+    h, w = mask.shape
+    vv, uu = np.nonzero(mask)
+    x0, y0 = max(uu.min() - margin_px, 0), max(vv.min() - margin_px, 0)
+    x1, y1 = min(uu.max() + margin_px + 1, w), min(vv.max() + margin_px + 1, h)
+    return (np.ascontiguousarray(photo_bgr[y0:y1, x0:x1]),
+            np.ascontiguousarray(mask[y0:y1, x0:x1]), np.array([x0, y0], dtype=np.int64))
 
 
 def _sample(mask: NDArray[np.uint8], camera: PinholeCamera, distance_mm: float,
@@ -411,31 +494,28 @@ def _differs_from_plane(feat_photo: NDArray[np.float32], feat_bg: NDArray[np.flo
 
 
 def _quality(mask: NDArray[np.uint8], hue_mask: NDArray[np.uint8] | None,
-             feat_photo: NDArray[np.float32] | None, feat_bg: NDArray[np.float32] | None,
-             photo: NDArray[np.uint8], background: NDArray[np.uint8], camera: PinholeCamera,
+             features: _Features | None, photos: _Photos, camera: PinholeCamera,
              distance_mm: float, centroid: NDArray[np.float64], area: float) -> BuildQuality:
-    """The build's :class:`BuildQuality` (see there); ``feat_photo`` None: the hue rule
-    built the model alone (nothing to compare it with)."""
-    photo_feat = _log_opponent(photo) if feat_photo is None else feat_photo
-    bg_feat = _log_opponent(background) if feat_bg is None else feat_bg
+    """The build's :class:`BuildQuality` (see there) of silhouette ``mask`` (H, W) with
+    centroid (2,) (mm) and area (mm^2); ``features`` None: the hue rule built the model alone
+    (nothing to compare it with)."""
+    photo_feat, bg_feat = (features if features is not None else
+                           (_log_opponent(photos.photo), _log_opponent(photos.background)))
     plane = np.median(bg_feat.reshape(-1, 3), axis=0)
     interior = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
     inside = photo_feat[interior > 0] - plane
     close = ((np.hypot(inside[:, 1], inside[:, 2]) < CLOSE_CHROMA)
              & (np.abs(inside[:, 0]) < CLOSE_LIGHTNESS))
     share = float(close.mean()) if len(close) else 0.0
-    if hue_mask is None or feat_photo is None:   # no hue rule, or nothing but the hue rule
+    if hue_mask is None or features is None:   # no hue rule, or nothing but the hue rule
         return BuildQuality(share, None, None)
     if hue_mask is mask:   # the per-pixel rule added nothing
         return BuildQuality(share, 0.0, 1.0)
     if not hue_mask.any():
         return BuildQuality(share, None, 0.0)
-    vv, uu = np.nonzero(hue_mask)
-    uv = np.stack([uu, vv], axis=-1).astype(np.float64)
-    xy = camera.undistort_pixels(uv) * distance_mm
-    a = _pixel_area_mm2(camera, uv, distance_mm)
-    shift = float(np.linalg.norm((xy * a[:, None]).sum(axis=0) / a.sum() - centroid))
-    return BuildQuality(share, shift, float(a.sum() / area))
+    hue_centroid, hue_area = _area_centroid(hue_mask, camera, distance_mm)
+    return BuildQuality(share, float(np.linalg.norm(hue_centroid - centroid)),
+                        float(hue_area / area))
 
 
 def _smooth(image: NDArray[np.uint8], sigma_px: float) -> NDArray[np.uint8]:

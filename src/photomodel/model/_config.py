@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["DEFAULT_STATION_DISTANCE_MM", "BuildConfig"]
+__all__ = ["BUILD_RANGES", "DEFAULT_STATION_DISTANCE_MM", "BuildConfig"]
 
 DEFAULT_STATION_DISTANCE_MM = 400.0
 """Model-station camera to plane distance, mm, where none is given (the paper's station)."""
@@ -35,7 +35,7 @@ class BuildConfig:
 
     def __post_init__(self) -> None:
         for key, value in asdict(self).items():
-            lo, hi = RANGES[key]
+            lo, hi = BUILD_RANGES[key]
             if not (math.isfinite(value) and lo <= value <= hi) or (
                     key in _POSITIVE and value <= 0):
                 unit = next((u for end, u in _UNITS if key.endswith(end)), "")
@@ -44,7 +44,7 @@ class BuildConfig:
                 raise ValueError(f"{key}: expected a number {allowed}, got {value:g}")
 
 
-RANGES: dict[str, tuple[float, float]] = {
+BUILD_RANGES: dict[str, tuple[float, float]] = {
     "hue_threshold_deg": (0.0, 180.0),
     "achromatic_fraction": (0.0, 1.0),
     "dark_fraction": (0.0, 1.0),

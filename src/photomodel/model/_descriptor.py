@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.image import feature_pyramid, log_opponent
 from photomodel.model._config import DEFAULT_STATION_DISTANCE_MM
 from photomodel.model._photomodel import PhotoModel
 
@@ -39,11 +39,13 @@ __all__ = [
     "COLOUR_GRID_SHAPE",
     "DESCRIPTOR_LEVEL",
     "DESCRIPTOR_VERSION",
+    "HAND_MM_PER_PX",
     "MAX_COLOUR_BINS",
     "ModelDescriptor",
     "colour_grid_coords",
     "describe_model",
     "model_mm_per_px",
+    "soft_colour_histogram",
 ]
 
 DESCRIPTOR_VERSION = 1

@@ -35,10 +35,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from photomodel.calibrate._detect import chessboard_pose
-from photomodel.calibrate._pattern import Chessboard
-from photomodel.camera import PinholeCamera
-from photomodel.camera._io import _matrix, _open, _write_file_storage
+from photomodel._files import write_file_storage
+from photomodel.calibrate import Chessboard, chessboard_pose
+from photomodel.camera import PinholeCamera, load_matrix
 from photomodel.errors import InputError
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.image import read_color_image
@@ -94,13 +93,7 @@ def base_from_camera(T_base_hand: ArrayLike, T_hand_cam1: ArrayLike,
 def load_hand_eye(path: str | os.PathLike[str]) -> NDArray[np.float64]:
     """``T_hand_cam1`` (4, 4), mm, from a ``cv2.FileStorage`` file (key ``T_hand_cam1``)."""
     p = Path(path)
-    fs = _open(p)
-    try:
-        T = _matrix(p, fs, ("T_hand_cam1",), (4, 4))
-    finally:
-        fs.release()
-    assert T is not None
-    return _check_transform(T, str(p))
+    return _check_transform(load_matrix(p, "T_hand_cam1", (4, 4)), str(p))
 
 
 def save_hand_eye(path: str | os.PathLike[str], T_hand_cam1: ArrayLike,
@@ -116,7 +109,7 @@ def save_hand_eye(path: str | os.PathLike[str], T_hand_cam1: ArrayLike,
         for key, value in (info or {}).items():
             fs.write(key, value if isinstance(value, str) else float(value))
 
-    _write_file_storage(p, write)
+    write_file_storage(p, write)
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from photomodel.fitness._protocols import KernelNormalEquations
+from photomodel.fitness import KernelNormalEquations
 from photomodel.geometry import pose_vectors_to_matrices, strained_matrices
 from photomodel.search._base import SearchResult, conforms
 from photomodel.search._gauss_newton_loop import (
@@ -217,104 +217,185 @@ def gauss_newton_refine(fitness: NormalEquationsFitness, x0: NDArray[np.float64]
         raise TypeError("gauss_newton_refine: expected a fitness with normal equations "
                         "(NormalEquationsFitness, e.g. SoftFitness)")
     c = config or GaussNewtonConfig()
-    free = np.ones(6, dtype=bool) if free is None else np.asarray(free, dtype=bool)
     x0_given = np.asarray(x0, dtype=np.float64).reshape(6)
     strain_given = None if strain is None else np.asarray(strain, dtype=np.float64).reshape(3)
-    x = space.clip(x0_given)
-    h = np.asarray(c.difference_steps) * 2.0**level
-    strained = strain is not None
-    if strained:
-        x = np.concatenate([x, np.clip(np.asarray(strain, dtype=np.float64).reshape(3),
-                                       -c.max_strain, c.max_strain)])
-        h = np.concatenate([h, np.full(3, c.strain_step * 2.0**level)])
-        free = np.concatenate([free, np.ones(3, dtype=bool)])
+    genes = _Genes.start(x0_given, strain_given, free, space, level, c)
+    if start is not None and not (np.array_equal(genes.x[:6], x0_given)
+                                  and (not genes.strained
+                                       or np.array_equal(genes.x[6:], strain_given))):
+        start = None     # clipped: another pose than the one evaluated
+    if conforms(fitness, KernelNormalEquations):
+        return _refine_in_kernel(fitness, genes.x, genes.free, genes.h, space, genes.prior,
+                                 level, c, start)
+    return _PythonRefinement(fitness, genes, space, level, c, start).run()
 
-    def clip(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return clip_genes(v, space.lower, space.upper, c.max_strain)
 
-    def transforms(poses: NDArray[np.float64]) -> NDArray[np.float64]:
-        if strained:
+@dataclass(frozen=True)
+class _Genes:
+    """The genes of one refinement: the clipped start ``x`` (G,) (G = 6, or 9 with the
+    strain), their unit steps ``h`` (G,) (mm, eps, strain), which move (``free``, (G,) bool)
+    and the strain's prior ``prior`` (G, G) (the penalty is ``x^T prior x``)."""
+
+    x: NDArray[np.float64]
+    h: NDArray[np.float64]
+    free: NDArray[np.bool_]
+    prior: NDArray[np.float64]
+
+    @property
+    def strained(self) -> bool:
+        """Whether the strain is refined with the pose (nine genes)."""
+        return len(self.x) > 6
+
+    @classmethod
+    def start(cls, x0: NDArray[np.float64], strain: NDArray[np.float64] | None,
+              free: NDArray[np.bool_] | None, space: SearchSpace, level: int,
+              c: GaussNewtonConfig) -> _Genes:
+        """The genes from pose vector ``x0`` (6,) and ``strain`` (3,) or None, both clipped
+        (into ``space``, within ``c.max_strain``); the difference steps of pyramid
+        ``level``; ``free`` (6,) or None (all) with the strain's genes free."""
+        free = np.ones(6, dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        x = space.clip(x0)
+        h = np.asarray(c.difference_steps) * 2.0**level
+        if strain is not None:
+            x = np.concatenate([x, np.clip(strain, -c.max_strain, c.max_strain)])
+            h = np.concatenate([h, np.full(3, c.strain_step * 2.0**level)])
+            free = np.concatenate([free, np.ones(3, dtype=bool)])
+        prior = np.zeros((len(x), len(x)))
+        if strain is not None:
+            prior[6:, 6:] = c.strain_prior()
+        return cls(x, h, free, prior)
+
+
+class _PythonRefinement:
+    """:func:`gauss_newton_refine`'s iterations in Python, for a fitness without numba
+    kernels: the state of one refinement (the genes ``x`` (G,) and their fitness ``f`` less
+    the strain's prior, the light offsets (2, 3) found there, ``lambda``, the evaluations)
+    and its stages. Each stage repeats :func:`._gauss_newton_loop.gauss_newton_loop`'s to
+    the bit."""
+
+    def __init__(self, fitness: NormalEquationsFitness, genes: _Genes, space: SearchSpace,
+                 level: int, c: GaussNewtonConfig,
+                 start: tuple[float, NDArray[np.float64]] | None) -> None:
+        self.fitness, self.genes, self.space, self.c = fitness, genes, space, c
+        self.x = genes.x
+        if start is None:
+            self.f = self.value(self.x)
+            self.offsets = fitness.last_offsets()
+            self.evaluations = 1
+        else:
+            self.f = start[0] - float(prior_values(self.x[None], genes.prior)[0])
+            self.offsets = np.array(start[1], dtype=np.float64).reshape(2, 3)
+            self.evaluations = 0
+        self.history = [self.f]
+        self.damping = c.damping0
+        self.differenced = False     # the gradient from the fitness's own differences
+        self.small_gains = 0     # accepted steps in a row that gained less than min_gain
+        self.min_gain = c.min_gain * c.min_gain_per_level**level
+
+    def run(self) -> SearchResult:
+        """Damped steps until converged, out of iterations or no step is accepted."""
+        reason = out_of_iterations(self.c)
+        for _ in range(self.c.max_iterations):
+            candidate, candidate_value, step = self._damped_step(*self._normal_equations())
+            if candidate_value <= self.f:
+                reason = NO_ASCENT
+                break
+            if self._accept(candidate, candidate_value, step):
+                reason = "gauss-newton: converged"
+                break
+        trace = np.asarray(self.history)
+        f = self.f + float(prior_values(self.x[None], self.genes.prior)[0])  # the fitness itself
+        return SearchResult(self.x[:6], f, self.evaluations, len(self.history) - 1, reason,
+                            trace, trace,
+                            strain=self.x[6:].copy() if self.genes.strained else None)
+
+    def transforms(self, poses: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Maps (P, 4, 4) of model points into camera 1 of gene vectors (P, G)."""
+        if self.genes.strained:
             return strained_matrices(poses[:, :6], poses[:, 6:])
         return pose_vectors_to_matrices(poses)
 
-    prior = np.zeros((len(x), len(x)))     # the strain's prior: x^T prior x
-    if strained:
-        prior[6:, 6:] = c.strain_prior()
+    def values(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The fitness (P,) of gene vectors ``v`` (P, G), less the strain's prior."""
+        return (self.fitness.evaluate_transforms(self.transforms(v))
+                - prior_values(v, self.genes.prior))
 
-    def values(v: NDArray[np.float64]) -> NDArray[np.float64]:  # less the strain's prior
-        return fitness.evaluate_transforms(transforms(v)) - prior_values(v, prior)
+    def value(self, v: NDArray[np.float64]) -> float:
+        """The fitness of one gene vector ``v`` (G,), less the strain's prior."""
+        return float(self.values(v[None])[0])
 
-    def value(v: NDArray[np.float64]) -> float:
-        return float(values(v[None])[0])
+    def _normal_equations(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The gradient (k,) and metric (k, k) over the k free genes at ``x``, the prior's
+        terms added; the gradient from the fitness's own differences once differenced."""
+        g = self.genes
+        gradient, metric = self.fitness.normal_equations(
+            self.transforms(self.x[None])[0], _map_derivatives(self.x, g.free), self.offsets,
+            with_offsets=True)
+        self.evaluations += 1
+        if g.strained:
+            add_prior(gradient, metric, g.prior, self.x, g.free)
+        if self.differenced:
+            gradient = self._differences()
+        return gradient, metric
 
-    if start is not None and not (np.array_equal(x[:6], x0_given)
-                                  and (not strained or np.array_equal(x[6:], strain_given))):
-        start = None     # clipped: another pose than the one evaluated
-    if conforms(fitness, KernelNormalEquations):
-        return _refine_in_kernel(fitness, x, free, h, space, prior, level, c, start)
-    if start is None:
-        f = value(x)
-        offsets = fitness.last_offsets()
-        evaluations = 1
-    else:
-        f = start[0] - float(prior_values(x[None], prior)[0])
-        offsets = np.array(start[1], dtype=np.float64).reshape(2, 3)
-        evaluations = 0
-    history = [f]
-    damping = c.damping0
-    reason = out_of_iterations(c)
-    differenced = False     # the gradient from the fitness's own differences
-    genes = len(x)
-    small_gains = 0     # accepted steps in a row that gained less than min_gain
-    min_gain = c.min_gain * c.min_gain_per_level**level
-    for _ in range(c.max_iterations):
-        gradient, metric = fitness.normal_equations(
-            transforms(x[None])[0], _map_derivatives(x, free), offsets, with_offsets=True)
-        evaluations += 1
-        if strained:
-            add_prior(gradient, metric, prior, x, free)
-        if differenced:
-            gradient = _fitness_gradient(values, x, f, h, free)
-            evaluations += genes
-        step = np.zeros(genes)
+    def _differences(self) -> NDArray[np.float64]:
+        """The gradient (k,) from the fitness's own forward differences at ``x``."""
+        self.evaluations += len(self.x)
+        return _fitness_gradient(self.values, self.x, self.f, self.genes.h, self.genes.free)
+
+    def _damped_step(self, gradient: NDArray[np.float64], metric: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
+        """The first damped step (G,) from ``x`` that raises the fitness, ``lambda`` growing
+        after each rejected one (and the fitness's own gradient taken where ``lambda`` runs
+        out), as ``(candidate (G,), its value, step (G,))``; the last rejected one when none
+        does."""
+        c, g = self.c, self.genes
+        step = np.zeros(len(self.x))
         while True:
-            step[free] = damped_step(metric, damping, gradient)
-            candidate = clip(x + step)
-            candidate_value = value(candidate)
-            evaluations += 1
-            if candidate_value > f:
-                damping = max(damping / 3.0, 1e-4)
-                offsets = fitness.last_offsets()
-                alpha = _extrapolation(f, candidate_value, slope_along(gradient, step, free),
-                                       c.extrapolation)
-                if alpha > 1.0:
-                    further = clip(x + alpha * step)
-                    further_value = value(further)
-                    evaluations += 1
-                    if further_value > candidate_value:
-                        candidate, candidate_value, step = further, further_value, further - x
-                        offsets = fitness.last_offsets()
-                break
-            damping = max(4.0 * damping, c.rejected_damping)
-            if damping > c.max_damping or np.all(np.abs(step) <= c.min_step * h):
-                if differenced:
-                    break
-                differenced, damping = True, c.damping0
-                gradient = _fitness_gradient(values, x, f, h, free)
-                evaluations += genes
-        if candidate_value <= f:
-            reason = NO_ASCENT
-            break
-        small_gains = small_gains + 1 if candidate_value - f < min_gain else 0
-        x, f = candidate, candidate_value
-        history.append(f)
-        if np.all(np.abs(step) <= c.converged_steps * h) or small_gains >= c.min_gain_steps:
-            reason = "gauss-newton: converged"
-            break
-    trace = np.asarray(history)
-    f += float(prior_values(x[None], prior)[0])     # the fitness itself
-    return SearchResult(x[:6], f, evaluations, len(history) - 1, reason, trace, trace,
-                        strain=x[6:].copy() if strained else None)
+            step[g.free] = damped_step(metric, self.damping, gradient)
+            candidate = clip_genes(self.x + step, self.space.lower, self.space.upper,
+                                   c.max_strain)
+            candidate_value = self.value(candidate)
+            self.evaluations += 1
+            if candidate_value > self.f:
+                self.damping = max(self.damping / 3.0, 1e-4)
+                self.offsets = self.fitness.last_offsets()
+                return self._extrapolate(candidate, candidate_value, step, gradient)
+            self.damping = max(4.0 * self.damping, c.rejected_damping)
+            if self.damping > c.max_damping or np.all(np.abs(step) <= c.min_step * g.h):
+                if self.differenced:
+                    return candidate, candidate_value, step
+                self.differenced, self.damping = True, c.damping0
+                gradient = self._differences()
+
+    def _extrapolate(self, candidate: NDArray[np.float64], candidate_value: float,
+                     step: NDArray[np.float64], gradient: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
+        """The accepted step taken further where the fitness along it still climbs
+        (``GaussNewtonConfig.extrapolation``): ``(candidate (G,), its value, step (G,))``."""
+        alpha = _extrapolation(self.f, candidate_value,
+                               slope_along(gradient, step, self.genes.free),
+                               self.c.extrapolation)
+        if alpha > 1.0:
+            further = clip_genes(self.x + alpha * step, self.space.lower, self.space.upper,
+                                 self.c.max_strain)
+            further_value = self.value(further)
+            self.evaluations += 1
+            if further_value > candidate_value:
+                self.offsets = self.fitness.last_offsets()
+                return further, further_value, further - self.x
+        return candidate, candidate_value, step
+
+    def _accept(self, candidate: NDArray[np.float64], candidate_value: float,
+                step: NDArray[np.float64]) -> bool:
+        """Move to ``candidate`` (G,); whether the refinement converged (a short step, or
+        ``min_gain_steps`` small gains in a row)."""
+        c = self.c
+        self.small_gains = self.small_gains + 1 if candidate_value - self.f < self.min_gain else 0
+        self.x, self.f = candidate, candidate_value
+        self.history.append(self.f)
+        return bool(np.all(np.abs(step) <= c.converged_steps * self.genes.h)
+                    or self.small_gains >= c.min_gain_steps)
 
 
 def _refine_in_kernel(fitness: KernelNormalEquations, x: NDArray[np.float64],

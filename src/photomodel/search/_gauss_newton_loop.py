@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel._jit import njit
-from photomodel.fitness._protocols import kernel_normal_equations, kernel_values
+from photomodel.fitness import kernel_normal_equations, kernel_values
 from photomodel.geometry import pose_maps_kernel
 
 CONVERGED, NO_ASCENT_CODE, OUT_OF_ITERATIONS = 0, 1, 2

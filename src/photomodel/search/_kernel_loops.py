@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from photomodel._jit import njit
-from photomodel.fitness._protocols import KernelFitness, kernel_values
+from photomodel.fitness import KernelFitness, kernel_values
 from photomodel.geometry import facing_kernel, facing_pose_vectors, pose_maps_kernel
 from photomodel.search._base import SearchResult, conforms
 from photomodel.search._refine import RefineConfig

@@ -18,7 +18,8 @@ from typing import Any
 from photomodel._files import append_lines, locked
 from photomodel.errors import InputError
 
-__all__ = ["ACTOR", "AUDIT_FIELDS", "Actor", "AuditLog", "file_sha256", "read_audit"]
+__all__ = ["ACTOR", "AUDIT_ACTIONS", "AUDIT_FIELDS", "Actor", "AuditLog", "file_sha256",
+           "read_audit"]
 
 log = logging.getLogger("photomodel.service")
 
@@ -30,7 +31,7 @@ AUDIT_FIELDS = ("time", "client", "role", "user", "face", "action", "model", "sh
 registration or replacement, before a deletion), ``status`` (the HTTP status, or the OPC UA
 status name) and ``detail`` (the path refused, the reason)."""
 
-ACTIONS = ("register", "replace", "delete", "set-scale", "record", "login", "login-failed",
+AUDIT_ACTIONS = ("register", "replace", "delete", "set-scale", "record", "login", "login-failed",
            "logout", "refused")
 
 

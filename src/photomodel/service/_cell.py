@@ -25,8 +25,7 @@ from photomodel.camera import PinholeCamera, StereoRig, load_camera, load_distan
 from photomodel.errors import InputError
 from photomodel.identify import CacheStats, Identifier, IdentifyConfig
 from photomodel.image import decode_color_image, decode_color_images
-from photomodel.library import ModelLibrary, check_model_name
-from photomodel.library._library import LibraryEntry
+from photomodel.library import LibraryEntry, ModelLibrary, check_model_name
 from photomodel.locate import Locator, draw_overlay, draw_table_overlay, load_threshold
 from photomodel.model import DEFAULT_STATION_DISTANCE_MM, PhotoModel, build_model
 from photomodel.service._audit import AuditLog, file_sha256
@@ -39,7 +38,7 @@ from photomodel.service._source_link import SourceLink
 from photomodel.service._threads import SearchThreads
 
 __all__ = ["EAGER_PREPARED", "CellService", "Conflict", "NotFound", "ServiceConfig",
-           "Unavailable", "read_token"]
+           "Unavailable", "exposure_warning", "read_token"]
 
 log = logging.getLogger("photomodel.service")
 

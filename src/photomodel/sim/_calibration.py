@@ -56,7 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from photomodel.calibrate._pattern import Chessboard
+from photomodel.calibrate import Chessboard
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.geometry import invert_transform, make_transform
 from photomodel.image import write_image

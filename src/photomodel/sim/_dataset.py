@@ -200,14 +200,27 @@ def write_dataset(
         An unknown garment or condition, conditions asking for different lenses, ``scenes``
         or ``seed`` out of range; the message starts with the argument (``scenes: ...``).
     """
-    from photomodel.sim._calibration import (
-        MAX_CALIBRATION_VIEWS,
-        MIN_CALIBRATION_VIEWS,
-        calibration_image_count,
-        write_calibration,
-    )
-
     out = Path(out)
+    _check_counts(scenes, seed, workers, calibration_views)
+    chosen = _chosen_garments(garments, extra_garments, labels, seed)
+    shelf = _library_names(library, chosen)
+    parsed, lens = _parsed_conditions(conditions)
+    if any(c.target for c in parsed.values()) and not chosen and not shelf:
+        raise ValueError("garments: expected at least one")
+    if table is not None:
+        _check_table(table, parsed, chosen)
+    check_out(out, overwrite, "dataset.json", _FORMAT, "a dataset")
+    writer = _Writer(_Plan(seed, scenes, chosen, shelf, parsed, lens, table, calibration_views,
+                           workers), progress)
+    build_folder(out, "dataset.json", _FORMAT, writer, "the dataset")
+    return DatasetSummary(out, (*chosen, *shelf), tuple(writer.scene_ids))
+
+
+def _check_counts(scenes: int, seed: int, workers: int | None, calibration_views: int) -> None:
+    """ValueError (``calibration_views: ...``, ``scenes: ...``, ``seed: ...``,
+    ``workers: ...``, in this order) for a count of :func:`write_dataset` out of range."""
+    from photomodel.sim._calibration import MAX_CALIBRATION_VIEWS, MIN_CALIBRATION_VIEWS
+
     if calibration_views != 0 and not (MIN_CALIBRATION_VIEWS <= calibration_views
                                        <= MAX_CALIBRATION_VIEWS):
         raise ValueError(f"calibration_views: expected 0 (none) or an integer from "
@@ -219,6 +232,13 @@ def write_dataset(
         raise ValueError(f"seed: expected an integer from 0 to {MAX_SEED}, got {seed}")
     if workers is not None and not 1 <= workers <= 64:
         raise ValueError(f"workers: expected an integer from 1 to 64, got {workers}")
+
+
+def _chosen_garments(garments: Sequence[str] | None, extra_garments: Mapping[str, Garment] | None,
+                     labels: bool, seed: int) -> dict[str, Garment]:
+    """The garments with scenes by name: the catalogue's ``garments`` (default all 12), then
+    ``extra_garments``, each with its printed label when ``labels``; ValueError
+    (``garments: ...``) for a name used twice or that cannot be a directory name."""
     names = list(garment_names() if garments is None else garments)
     chosen: dict[str, Garment] = {name: catalogue_garment(name) for name in names}
     for name, garment in (extra_garments or {}).items():
@@ -232,7 +252,12 @@ def write_dataset(
 
         chosen = {name: random_label(g, name, seed, scene_rng(seed, "label", name))
                   for name, g in chosen.items()}
-    shelf = _library_names(library, chosen)
+    return chosen
+
+
+def _parsed_conditions(conditions: Sequence[str]) -> tuple[dict[str, Conditions], str]:
+    """Each distinct condition spec, in order, parsed, and the one lens they share;
+    ValueError (``conditions: ...``) for none or for different lenses."""
     specs = list(dict.fromkeys(conditions))
     if not specs:
         raise ValueError("conditions: expected at least one")
@@ -242,94 +267,142 @@ def write_dataset(
         raise ValueError("conditions ask for different lenses "
                          f"({', '.join(sorted(lenses))}); a dataset has one stereo calibration: "
                          "simulate them into separate datasets")
-    if any(c.target for c in parsed.values()) and not chosen and not shelf:
-        raise ValueError("garments: expected at least one")
-    if table is not None:
-        _check_table(table, parsed, chosen)
-    check_out(out, overwrite, "dataset.json", _FORMAT, "a dataset")
-    scene_count = (_count_jobs(parsed, len(chosen), scenes) if table is None
-                   else len(parsed) * scenes)
-    total = (len(chosen) + len(shelf) + scene_count
-             + calibration_image_count(calibration_views))
-    scene_ids: list[str] = []
+    return parsed, lenses.pop()
 
-    def build(tmp: Path) -> None:
-        rig = hand_stereo_rig(lens=lenses.pop())
+
+@dataclass(frozen=True)
+class _Plan:
+    """What one :func:`write_dataset` call writes (its checked arguments): the garments with
+    scenes (``chosen``), the library's other names (``shelf``), the parsed conditions by
+    spec and their lens, and the counts."""
+
+    seed: int
+    scenes: int
+    chosen: dict[str, Garment]
+    shelf: list[str]
+    parsed: dict[str, Conditions]
+    lens: str
+    table: int | None
+    calibration_views: int
+    workers: int | None
+
+    def image_count(self) -> int:
+        """Model photo pairs, scenes and calibration images: the progress's total."""
+        from photomodel.sim._calibration import calibration_image_count
+
+        scene_count = (_count_jobs(self.parsed, len(self.chosen), self.scenes)
+                       if self.table is None else len(self.parsed) * self.scenes)
+        return (len(self.chosen) + len(self.shelf) + scene_count
+                + calibration_image_count(self.calibration_views))
+
+    def jobs(self) -> Iterator[tuple[str, str, str | None, int]]:
+        """(scene id, condition spec, garment or None, index) of every scene, in order."""
+        return (_jobs(self.parsed, list(self.chosen), self.scenes) if self.table is None
+                else _table_jobs(self.parsed, self.table, self.scenes))
+
+    def scene(self, rig: StereoRig, spec: str, name: str | None, k: int
+              ) -> tuple[NDArray[np.uint8], NDArray[np.uint8], dict[str, Any]]:
+        """Camera 1's and camera 2's images (H, W, 3) of scene ``k`` of garment ``name`` (or
+        of a table, or none) under condition ``spec``, and its truth entry (with the labels'
+        truth where the garments carry one)."""
+        cond = self.parsed[spec]
+        if self.table is not None:
+            right, left, facts = _table_scene(list(self.chosen.values()), self.table, rig, cond,
+                                              scene_rng(self.seed, spec, f"table{self.table}", k),
+                                              spec)
+            for g in facts.get("garments", []):
+                label = self.chosen[g["model"]].label if g["model"] in self.chosen else None
+                if label is not None:
+                    g["label"] = label.truth(rig, np.asarray(g["T_cam1_model"]))
+            return right, left, facts
+        target = self.chosen[name] if name is not None else None
+        shot = simulate_scene(target, rig, cond, scene_rng(self.seed, spec, name or "", k))
+        facts = {
+            "model": name,
+            "T_cam1_model": (None if shot.T_cam1_model is None
+                             else shot.T_cam1_model.tolist()),
+            "condition": spec,
+            **shot.info,
+        }
+        if target is not None and target.label is not None and shot.T_cam1_model is not None:
+            facts["label"] = target.label.truth(rig, shot.T_cam1_model)
+        return shot.right_bgr, shot.left_bgr, facts
+
+    def manifest(self) -> dict[str, Any]:
+        """``dataset.json``: how the dataset was made."""
+        manifest = _manifest(self.seed, self.chosen, self.parsed, self.scenes)
+        if self.table is not None:
+            manifest["table"] = int(self.table)
+        if self.shelf:
+            manifest["library"] = _library_manifest(self.shelf)
+        if self.calibration_views:
+            manifest["calibration"] = {"views": int(self.calibration_views),
+                                       "readme": "calibration/README.txt"}
+        return manifest
+
+
+class _Writer:
+    """Writes a :class:`_Plan` into the directory being built (:func:`build_folder`'s
+    callback), calling ``progress(done, total, label)`` after every image; keeps the ids of
+    the scenes written."""
+
+    def __init__(self, plan: _Plan, progress: Callable[[int, int, str], None] | None) -> None:
+        self.plan, self.progress = plan, progress
+        self.total = plan.image_count()
+        self.done = 0
+        self.scene_ids: list[str] = []
+
+    def __call__(self, tmp: Path) -> None:
+        """``stereo.yaml``, ``model_camera.yaml``, the model photos, the scenes with
+        ``truth.json``, the chessboard views and ``dataset.json``, into ``tmp``."""
+        from photomodel.sim._calibration import write_calibration
+
+        plan = self.plan
+        rig = hand_stereo_rig(lens=plan.lens)
         camera = model_station_camera()
         save_stereo(tmp / "stereo.yaml", rig)
         save_camera(tmp / "model_camera.yaml", camera, distance_mm=MODEL_DISTANCE_MM)
-        done = 0
-        for name, garment in chosen.items():
+        self._models(tmp, camera)
+        self._scenes(tmp, rig)
+        if plan.calibration_views:
+            write_calibration(tmp, rig, camera, plan.calibration_views, plan.seed,
+                              progress=self._tick)
+        (tmp / "dataset.json").write_text(dumps_json(plan.manifest()))
+
+    def _tick(self, label: str) -> None:
+        """One more image written (``label`` says which)."""
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.total, label)
+
+    def _models(self, tmp: Path, camera: PinholeCamera) -> None:
+        """``models/<name>/photo.bmp`` and ``background.bmp`` of the garments with scenes,
+        then of the library's others."""
+        plan = self.plan
+        for name, garment in plan.chosen.items():
             photo, background = render_model_photos(garment, camera,
-                                                    scene_rng(seed, "model", name))
+                                                    scene_rng(plan.seed, "model", name))
             write_image(tmp / "models" / name / "photo.bmp", photo)
             write_image(tmp / "models" / name / "background.bmp", background)
-            done += 1
-            if progress is not None:
-                progress(done, total, f"model {name}")
-        for name in _write_library(tmp, shelf, seed, camera, workers):
-            done += 1
-            if progress is not None:
-                progress(done, total, f"model {name}")
-        with open(tmp / "truth.json", "w") as truth:   # one scene's entry at a time
+            self._tick(f"model {name}")
+        for name in _write_library(tmp, plan.shelf, plan.seed, camera, plan.workers):
+            self._tick(f"model {name}")
+
+    def _scenes(self, tmp: Path, rig: StereoRig) -> None:
+        """``scenes/<id>/right.png`` and ``left.png`` of every scene, and ``truth.json``, one
+        scene's entry at a time."""
+        with open(tmp / "truth.json", "w") as truth:
             truth.write("{")
-            jobs = (_jobs(parsed, list(chosen), scenes) if table is None
-                    else _table_jobs(parsed, table, scenes))
-            for scene_id, spec, name, k in jobs:
-                cond = parsed[spec]
-                if table is not None:
-                    right, left, facts = _table_scene(list(chosen.values()), table, rig, cond,
-                                                      scene_rng(seed, spec, f"table{table}", k),
-                                                      spec)
-                    for g in facts.get("garments", []):
-                        label = chosen[g["model"]].label if g["model"] in chosen else None
-                        if label is not None:
-                            g["label"] = label.truth(rig, np.asarray(g["T_cam1_model"]))
-                else:
-                    target = chosen[name] if name is not None else None
-                    shot = simulate_scene(target, rig, cond, scene_rng(seed, spec, name or "", k))
-                    right, left = shot.right_bgr, shot.left_bgr
-                    facts = {
-                        "model": name,
-                        "T_cam1_model": (None if shot.T_cam1_model is None
-                                         else shot.T_cam1_model.tolist()),
-                        "condition": spec,
-                        **shot.info,
-                    }
-                    if (target is not None and target.label is not None
-                            and shot.T_cam1_model is not None):
-                        facts["label"] = target.label.truth(rig, shot.T_cam1_model)
+            for scene_id, spec, name, k in self.plan.jobs():
+                right, left, facts = self.plan.scene(rig, spec, name, k)
                 write_image(tmp / "scenes" / scene_id / "right.png", right)
                 write_image(tmp / "scenes" / scene_id / "left.png", left)
                 # The text dumps_json gives this entry inside the whole dict.
                 entry = dumps_json({scene_id: facts})[1:-3]
-                truth.write(("," if scene_ids else "") + entry)
-                scene_ids.append(scene_id)
-                done += 1
-                if progress is not None:
-                    progress(done, total, f"scene {scene_id}")
-            truth.write("\n}\n" if scene_ids else "}\n")
-        if calibration_views:
-            def calibration_progress(label: str) -> None:
-                nonlocal done
-                done += 1
-                if progress is not None:
-                    progress(done, total, label)
-
-            write_calibration(tmp, rig, camera, calibration_views, seed,
-                              progress=calibration_progress)
-        manifest = _manifest(seed, chosen, parsed, scenes)
-        if table is not None:
-            manifest["table"] = int(table)
-        if shelf:
-            manifest["library"] = _library_manifest(shelf)
-        if calibration_views:
-            manifest["calibration"] = {"views": int(calibration_views),
-                                       "readme": "calibration/README.txt"}
-        (tmp / "dataset.json").write_text(dumps_json(manifest))
-
-    build_folder(out, "dataset.json", _FORMAT, build, "the dataset")
-    return DatasetSummary(out, (*chosen, *shelf), tuple(scene_ids))
+                truth.write(("," if self.scene_ids else "") + entry)
+                self.scene_ids.append(scene_id)
+                self._tick(f"scene {scene_id}")
+            truth.write("\n}\n" if self.scene_ids else "}\n")
 
 
 def _library_names(library: Sequence[str], chosen: Mapping[str, Garment]) -> list[str]:
@@ -386,7 +459,7 @@ def _init_worker(parent_pid: int) -> None:
 
     import numba
 
-    from photomodel.experiments._lock import die_with_parent
+    from photomodel._process import die_with_parent
 
     die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)

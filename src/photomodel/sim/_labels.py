@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.geometry import transform_points
-from photomodel.image._barcode import LINEAR_FORMATS, barcode_modules
+from photomodel.image import LINEAR_FORMATS, barcode_modules
 from photomodel.sim._garments import Garment
 from photomodel.sim._rigs import WORK_DISTANCE_MM
 from photomodel.sim._textures import PlaneTexture, RngLike

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.fitness import SoftMatch, StereoFeatures
-from photomodel.image._features import feature_pyramid, log_opponent
+from photomodel.image import feature_pyramid, log_opponent
 
 __all__ = ["Window", "WindowFeatures", "window_of_points"]
 

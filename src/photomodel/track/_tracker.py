@@ -33,8 +33,7 @@ from numpy.typing import NDArray
 
 from photomodel.camera import StereoRig
 from photomodel.errors import InputError
-from photomodel.fitness import SoftFitness, StereoFeatures, score_terms
-from photomodel.fitness._edges import NO_SLACK
+from photomodel.fitness import NO_SLACK, SoftFitness, StereoFeatures, score_terms
 from photomodel.geometry import (
     eps_from_rotation,
     pose_vectors_to_matrices,
@@ -43,8 +42,7 @@ from photomodel.geometry import (
 )
 from photomodel.locate import LocateResult, Locator
 from photomodel.model import PhotoModel
-from photomodel.search import GaussNewtonConfig, SearchSpace, gauss_newton_refine
-from photomodel.search._base import SearchResult
+from photomodel.search import GaussNewtonConfig, SearchResult, SearchSpace, gauss_newton_refine
 from photomodel.track._motion import ConstantVelocity
 from photomodel.track._result import TrackResult
 from photomodel.track._roi import Window, WindowFeatures, window_of_points
@@ -441,8 +439,7 @@ def _pose_vector(T: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _outline_points(locator: Locator, blur_mm: float) -> NDArray[np.float64]:
     """The model's band points at level 0 (N, 3), mm: its outline, a ring's width out."""
-    from photomodel.fitness import model_samples
-    from photomodel.fitness._soft import level_spacing
+    from photomodel.fitness import level_spacing, model_samples
 
     samples = model_samples(locator.prepared, level_spacing(0, optics_blur_mm=blur_mm))
     return np.asarray(samples.p_out, dtype=np.float64)
