@@ -151,8 +151,8 @@ def _errors(T_est: np.ndarray, T_true: np.ndarray) -> dict[str, float]:
 
 def run_size(lib: Path, scenes: list[dict[str, Any]], seed: int) -> dict[str, Any]:
     """Every scene through one Identifier of ``lib`` and the true model's Locator."""
-    from photomodel.fitness import StereoFeatures
-    from photomodel.identify import Identifier, scene_regions
+    from photomodel.fitness import StereoFeatures, scene_regions
+    from photomodel.identify import Identifier
     from photomodel.library import ModelLibrary
     from photomodel.locate import Locator
     from photomodel.sim import hand_stereo_rig

@@ -43,6 +43,7 @@ from _meta import metadata
 from peer_sift import model_features, sift_locate
 
 import photomodel.locate._locate as locate_module
+import photomodel.locate._locator as locator_module
 import photomodel.search._pyramid as pyramid_module
 from photomodel.experiments import ExperimentConfig, Trial, trial_inputs, trial_locator
 from photomodel.fitness import ScanConfig
@@ -74,19 +75,28 @@ class StageTimers:
         inner = getattr(module, name)
         self._wrapped.append((module, name, inner))
 
-        @functools.wraps(inner)
-        def timed(*args: Any, **kwargs: Any) -> Any:
+        def run(call: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
             if self._depth:
-                return inner(*args, **kwargs)
+                return call(*args, **kwargs)
             self._depth += 1
             t0 = time.perf_counter()
             try:
-                return inner(*args, **kwargs)
+                return call(*args, **kwargs)
             finally:
                 key = label if isinstance(label, str) else label(*args, **kwargs)
                 self.seconds[key] += time.perf_counter() - t0
                 self.calls[key] += 1
                 self._depth -= 1
+
+        if isinstance(inner, type):     # a class: its construction, its class methods kept
+            setattr(module, name, type(inner.__name__, (inner,), {
+                "__init__": lambda obj, *a, **k: run(super(type(obj), obj).__init__, *a,
+                                                     **k)}))
+            return
+
+        @functools.wraps(inner)
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            return run(inner, *args, **kwargs)
 
         setattr(module, name, timed)
 
@@ -111,7 +121,7 @@ def _gauss_newton_label(objective: Any, x: Any, space: Any, level: int, *args: A
 def install_timers() -> StageTimers:
     """Stage timers around the functions ``locate`` calls (see the module docstring)."""
     timers = StageTimers()
-    timers.wrap(locate_module, "StereoFeatures", "features")
+    timers.wrap(locator_module, "StereoFeatures", "features")   # a Locator makes them
     timers.wrap(locate_module, "scan_flat_poses", _scan_label)
     timers.wrap(locate_module, "relight_scan", "relit scan")
     timers.wrap(locate_module, "score_terms", "score")

@@ -17,7 +17,8 @@ from scipy.spatial.transform import Rotation
 from photomodel.calibrate import CharucoBoard, Chessboard, Target
 from photomodel.camera import PinholeCamera, StereoRig
 from photomodel.image import write_image
-from photomodel.sim import PlaneTexture, add_sensor_noise, blur, render_view
+from photomodel.sim import PlaneTexture, blur, render_view
+from photomodel.sim._render import add_sensor_noise
 
 BOARD = Chessboard((9, 6), 25.0)
 STATION_DISTANCE_MM = 400.0

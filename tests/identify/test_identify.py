@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from identify_helpers import IdentifyData
 
-from photomodel.fitness import StereoFeatures, as_prepared
+from photomodel.fitness import StereoFeatures, as_prepared, scene_regions
 from photomodel.identify import (
     BankConfig,
     DescriptorBank,
@@ -16,7 +16,6 @@ from photomodel.identify import (
     identify,
     identify_in_features,
     identify_with_bank,
-    scene_regions,
 )
 from photomodel.locate import locate_in_features
 from photomodel.model import describe_model

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from photomodel.errors import InputError
-from photomodel.identify import Threshold, calibrate_threshold, load_threshold, save_threshold
+from photomodel.locate import Threshold, calibrate_threshold, load_threshold, save_threshold
 
 
 def test_separable_scores_give_the_middle_of_the_gap() -> None:

@@ -17,8 +17,8 @@ from photomodel.robot import (
     jacobian,
     joint_frames,
     load_arm,
-    pose_error,
 )
+from photomodel.robot._kinematics import pose_error
 
 ARM = load_arm()
 MARGIN = np.radians(5.0)

@@ -18,7 +18,6 @@ from photomodel.sim import (
     FABRICS,
     GARMENT_SHAPES,
     MAX_CATALOGUE,
-    PLAIN_HUES,
     GarmentSpec,
     catalogue_garment,
     catalogue_names,
@@ -29,6 +28,7 @@ from photomodel.sim import (
 )
 from photomodel.sim import _random_catalogue as random_catalogue
 from photomodel.sim._catalogue import _build
+from photomodel.sim._textures import PLAIN_HUES
 
 CHECKED = 2000  # articles whose pairs the tests compare
 

@@ -24,8 +24,8 @@ from photomodel.sim import (
     make_table,
     parse_conditions,
     simulate_scene,
-    white_balance_gains,
 )
+from photomodel.sim._conditions import white_balance_gains
 
 PLAIN = Conditions(vignetting=0.0, noise_sigma=0.0, blur_sigma_px=0.0)  # expose = identity
 

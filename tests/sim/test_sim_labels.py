@@ -12,8 +12,7 @@ import pytest
 
 pytest.importorskip("zxingcpp")
 
-from photomodel.sim import (  # noqa: E402
-    MODULE_PX_RANGE,
+from photomodel.sim import (
     article_code,
     catalogue_garment,
     hand_stereo_rig,
@@ -22,7 +21,10 @@ from photomodel.sim import (  # noqa: E402
     random_label,
     write_dataset,
 )
-from photomodel.sim._labels import NOMINAL_PX_PER_MM  # noqa: E402
+from photomodel.sim._labels import (
+    MODULE_PX_RANGE,
+    NOMINAL_PX_PER_MM,  # noqa: E402
+)
 
 
 def test_article_codes_are_deterministic_and_differ() -> None:

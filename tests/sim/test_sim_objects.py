@@ -20,10 +20,10 @@ from photomodel.sim import (
     gripper,
     hand_table_pose,
     make_object,
-    place_layers,
     render_view_linear,
     uniform_plane,
 )
+from photomodel.sim._objects import place_layers
 
 HEIGHT_MM = 685.0  # camera above the table
 

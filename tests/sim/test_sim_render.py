@@ -11,15 +11,14 @@ from photomodel.geometry import make_transform, transform_points
 from photomodel.sim import (
     MODEL_DISTANCE_MM,
     PlaneTexture,
-    add_sensor_noise,
     blur,
     garment_placement,
     hand_table_pose,
     model_station_camera,
-    pixel_rays,
     render_view,
     uniform_plane,
 )
+from photomodel.sim._render import add_sensor_noise, pixel_rays
 
 CARD_PLACEMENT = garment_placement(8.0, -5.0, 7.0)  # T_plane_card
 

@@ -7,20 +7,17 @@ import numpy as np
 import pytest
 
 from photomodel.sim import (
-    MODEL_GREEN_BGR,
-    PHOTO_PRINTS,
     PlaneTexture,
     camo_fabric,
     dot_fabric,
     photo_fabric,
-    photo_print_image,
     plaid_fabric,
     plain_fabric,
     print_fabric,
     stripe_fabric,
-    table_plane,
     uniform_plane,
 )
+from photomodel.sim._textures import MODEL_GREEN_BGR, PHOTO_PRINTS, photo_print_image, table_plane
 
 
 def _hsv(texture: PlaneTexture) -> np.ndarray:

@@ -236,7 +236,7 @@ def _finish_identify(args: argparse.Namespace, config: Any, summary: dict[str, A
     """Calibrate (``--calibrate``) and print the identification experiment's summary."""
     if args.calibrate:
         from photomodel.experiments import calibrate_from_records, write_identify_report
-        from photomodel.identify import save_threshold
+        from photomodel.locate import save_threshold
 
         command = "photomodel " + " ".join(sys.argv[1:]) if sys.argv else ""
         threshold = calibrate_from_records(args.out, command=command)

@@ -186,7 +186,7 @@ def run_identify_trial(config: IdentifyExperimentConfig, trial: IdentifyTrial) -
                                     trial.index))
     min_score = config.min_score
     if min_score is None:
-        from photomodel.identify import load_threshold
+        from photomodel.locate import load_threshold
 
         min_score = load_threshold().min_score
     identifier = _identifier(tuple(config.library), config.seed,
@@ -475,7 +475,7 @@ def write_identify_report(out: str | os.PathLike[str],
 
     ``min_score`` (default: the config's, else the stored threshold) decides each scene.
     """
-    from photomodel.identify import load_threshold
+    from photomodel.locate import load_threshold
 
     out = Path(out)
     if config is None:
@@ -574,14 +574,14 @@ def calibrate_from_records(out: str | os.PathLike[str], *, max_false_accept: flo
 
     Positives: the true model's score in every garment scene (0 when the colour screen dropped
     it: no threshold can save that scene). Negatives: the best score of any model in every
-    scene without a library garment. See :func:`photomodel.identify.calibrate_threshold`.
+    scene without a library garment. See :func:`photomodel.locate.calibrate_threshold`.
 
     Returns
     -------
-    photomodel.identify.Threshold
+    photomodel.locate.Threshold
         With metadata: the command, settings, counts, rates, score quantiles, commit.
     """
-    from photomodel.identify import Threshold, calibrate_threshold
+    from photomodel.locate import Threshold, calibrate_threshold
 
     out = Path(out)
     runs = _read_runs(out)

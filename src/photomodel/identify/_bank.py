@@ -1,6 +1,6 @@
 """``DescriptorBank``: every model's descriptor in arrays, scored against a scene's regions.
 
-For each model and each region of :func:`~photomodel.identify.scene_regions`, with the
+For each model and each region of :func:`~photomodel.fitness.scene_regions`, with the
 region's millimetres per pixel (from the table's stereo depth) the model's colour histogram
 becomes the pixels it would cover there, ``A w`` (``A`` its area in pixels, ``w`` its bin
 shares). Then

@@ -5,7 +5,7 @@ For one stereo pair and a library of any size:
 1. **Shared work, once**: the images' log-opponent feature pyramids
    (:class:`~photomodel.fitness.StereoFeatures`), used by every model and stage, and the
    garment-like regions beside the table with the table's stereo depth
-   (:func:`~photomodel.identify.scene_regions`).
+   (:func:`~photomodel.fitness.scene_regions`).
 2. **Screening** (:class:`~photomodel.identify.DescriptorBank`): every model's descriptor,
    stored in the library's index, is scored against the regions (colours at the light the
    region suggests, area, shape): milliseconds for thousands of models, no model file read.
@@ -25,7 +25,7 @@ For one stereo pair and a library of any size:
    (:class:`~photomodel.identify.PreparedModels` keeps the recent ones).
 4. **Decide**: a candidate is found when its score reaches ``min_score``, the threshold
    calibrated on simulated scenes and stored with the package
-   (:func:`~photomodel.identify.load_threshold`), and its outline shows where its inside
+   (:func:`~photomodel.locate.load_threshold`), and its outline shows where its inside
    agrees (``min_visible_outline``); the found one with the highest score is the answer,
    otherwise none of the models is on the table. The runner-up is the next best located
    candidate.
@@ -86,7 +86,7 @@ class IdentifyConfig:
     ----------
     min_score : float or None
         Score from which the best model counts as found; None: the stored, calibrated
-        threshold (:func:`~photomodel.identify.load_threshold`).
+        threshold (:func:`~photomodel.locate.load_threshold`).
     max_candidates : int
         Most models verified by a pose search.
     min_evidence : float

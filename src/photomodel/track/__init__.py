@@ -3,25 +3,4 @@ tracker."""
 
 import lazy_loader
 
-__getattr__, __dir__, _ = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "_motion": ["ConstantVelocity", "se3_exp", "se3_log"],
-        "_result": ["Mode", "TrackResult"],
-        "_roi": ["Window", "WindowFeatures", "window_of_points"],
-        "_tracker": ["Tracker", "TrackerConfig"],
-    },
-)
-
-__all__ = [
-    "ConstantVelocity",
-    "Mode",
-    "TrackResult",
-    "Tracker",
-    "TrackerConfig",
-    "Window",
-    "WindowFeatures",
-    "se3_exp",
-    "se3_log",
-    "window_of_points",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

@@ -1,0 +1,246 @@
+# The subpackage's public names (lazy_loader.attach_stub reads this file; type
+# checkers read it as the package's stub). One list: add a name here only.
+
+from ._calibration import (
+    CALIBRATION_BOARD,
+    MAX_CALIBRATION_VIEWS,
+    MIN_CALIBRATION_VIEWS,
+    BoardSpec,
+    write_calibration,
+)
+from ._catalogue import (
+    CATALOGUE,
+    GARMENT_GROUPS,
+    SIMILAR,
+    GarmentSpec,
+    catalogue_garment,
+    expand_garments,
+    garment_from_image,
+    garment_names,
+    known_garments,
+    load_garment,
+)
+from ._cell_geometry import (
+    default_hand_eye,
+    photo_configuration,
+    table_in_base,
+)
+from ._conditions import (
+    LENSES,
+    TABLES,
+    Conditions,
+    expose,
+    parse_conditions,
+)
+from ._dataset import (
+    MAX_SCENES,
+    DatasetSummary,
+    check_garment_name,
+    scene_rng,
+    write_dataset,
+)
+from ._garments import (
+    FABRICS,
+    GARMENT_SHAPES,
+    Garment,
+    garment_outline_mm,
+    make_garment,
+)
+from ._labels import (
+    LABEL_FORMATS,
+    GarmentLabel,
+    article_code,
+    labelled_garment,
+    random_label,
+)
+from ._live import (
+    ConveyorView,
+)
+from ._mesh import (
+    Fold,
+    Wrinkles,
+)
+from ._objects import (
+    OBJECT_KINDS,
+    gripper,
+    make_object,
+)
+from ._presets import (
+    CONDITIONS,
+)
+from ._random_catalogue import (
+    MAX_CATALOGUE,
+    catalogue_names,
+    catalogue_spec,
+    lookalike_of,
+)
+from ._render import (
+    Layer,
+    RenderedView,
+    blur,
+    render_view,
+    render_view_linear,
+)
+from ._rigs import (
+    BASELINE_MM,
+    MODEL_DISTANCE_MM,
+    WORK_DISTANCE_MM,
+    hand_stereo_rig,
+    hand_table_pose,
+    model_station_camera,
+)
+from ._scenes import (
+    SimulatedScene,
+    StereoScene,
+    garment_placement,
+    random_stereo_scene,
+    render_model_photos,
+    render_stereo_scene,
+    simulate_scene,
+)
+from ._sequences import (
+    CONVEYOR_MM_S_RANGE,
+    MAX_FPS,
+    MAX_SECONDS,
+    SEQUENCE_KINDS,
+    SequenceFrame,
+    SequenceSettings,
+    SequencesSummary,
+    simulate_sequence,
+    write_sequence,
+    write_sequences,
+)
+from ._sheet import (
+    contact_sheet,
+)
+from ._station import (
+    station_model,
+    station_scale,
+)
+from ._table import (
+    CLOTH_THICKNESS_MM,
+    MAX_TABLE_GARMENTS,
+    MIN_TABLE_GARMENTS,
+    GarmentTruth,
+    TableGarment,
+    TableLayout,
+    TableShot,
+    random_table,
+    simulate_table,
+)
+from ._tables import (
+    make_table,
+)
+from ._textures import (
+    PlaneTexture,
+    camo_fabric,
+    dot_fabric,
+    photo_fabric,
+    plaid_fabric,
+    plain_fabric,
+    print_fabric,
+    stripe_fabric,
+    uniform_plane,
+)
+
+__all__ = [
+    "BASELINE_MM",
+    "BoardSpec",
+    "CALIBRATION_BOARD",
+    "CATALOGUE",
+    "CLOTH_THICKNESS_MM",
+    "CONDITIONS",
+    "CONVEYOR_MM_S_RANGE",
+    "Conditions",
+    "ConveyorView",
+    "DatasetSummary",
+    "FABRICS",
+    "Fold",
+    "GARMENT_GROUPS",
+    "GARMENT_SHAPES",
+    "Garment",
+    "GarmentLabel",
+    "GarmentSpec",
+    "GarmentTruth",
+    "LABEL_FORMATS",
+    "LENSES",
+    "Layer",
+    "MAX_CALIBRATION_VIEWS",
+    "MAX_CATALOGUE",
+    "MAX_FPS",
+    "MAX_SCENES",
+    "MAX_SECONDS",
+    "MAX_TABLE_GARMENTS",
+    "MIN_CALIBRATION_VIEWS",
+    "MIN_TABLE_GARMENTS",
+    "MODEL_DISTANCE_MM",
+    "OBJECT_KINDS",
+    "PlaneTexture",
+    "RenderedView",
+    "SEQUENCE_KINDS",
+    "SIMILAR",
+    "SequenceFrame",
+    "SequenceSettings",
+    "SequencesSummary",
+    "SimulatedScene",
+    "StereoScene",
+    "TABLES",
+    "TableGarment",
+    "TableLayout",
+    "TableShot",
+    "WORK_DISTANCE_MM",
+    "Wrinkles",
+    "article_code",
+    "blur",
+    "camo_fabric",
+    "catalogue_garment",
+    "catalogue_names",
+    "catalogue_spec",
+    "check_garment_name",
+    "contact_sheet",
+    "default_hand_eye",
+    "dot_fabric",
+    "expand_garments",
+    "expose",
+    "garment_from_image",
+    "garment_names",
+    "garment_outline_mm",
+    "garment_placement",
+    "gripper",
+    "hand_stereo_rig",
+    "hand_table_pose",
+    "known_garments",
+    "labelled_garment",
+    "load_garment",
+    "lookalike_of",
+    "make_garment",
+    "make_object",
+    "make_table",
+    "model_station_camera",
+    "parse_conditions",
+    "photo_configuration",
+    "photo_fabric",
+    "plaid_fabric",
+    "plain_fabric",
+    "print_fabric",
+    "random_label",
+    "random_stereo_scene",
+    "random_table",
+    "render_model_photos",
+    "render_stereo_scene",
+    "render_view",
+    "render_view_linear",
+    "scene_rng",
+    "simulate_scene",
+    "simulate_sequence",
+    "simulate_table",
+    "station_model",
+    "station_scale",
+    "stripe_fabric",
+    "table_in_base",
+    "uniform_plane",
+    "write_calibration",
+    "write_dataset",
+    "write_sequence",
+    "write_sequences",
+]
