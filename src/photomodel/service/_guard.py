@@ -37,7 +37,7 @@ _LOGIN_PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8">
 <body style="font-family: system-ui, sans-serif; margin: 3em">
 <h1>photomodel cell</h1><p>This service needs a token (one of those in its --token-file).</p>
 <form method="post" action="login"><input name="token" type="password" autofocus size="40"
-autocomplete="current-password"><button type="submit">Open</button>
+autocomplete="current-password"> <button type="submit">Open</button>
 <span style="color: #b91c1c">{note}</span></form></body></html>"""
 
 
