@@ -18,6 +18,7 @@ from photomodel.service._audit import read_audit
 
 _WORKER = """
 import sys
+from pathlib import Path
 from photomodel.service import CellService, ServiceConfig
 stereo, camera, library, photo, background = sys.argv[1:6]
 cell = CellService(ServiceConfig(stereo=Path(stereo), models=Path(library),
@@ -44,13 +45,17 @@ def test_twenty_kills_during_registrations_leave_a_whole_audit_trail(cell_data, 
     rng = random.Random(49)
     counts = []
     for _ in range(20):
-        worker = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                  text=True)
+        errors = (tmp_path / "worker.err").open("w")
+        worker = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=errors, text=True)
         assert worker.stdout is not None
-        assert worker.stdout.readline().strip() == "ready"
+        if worker.stdout.readline().strip() != "ready":
+            worker.wait(timeout=30)
+            pytest.fail("the worker did not start: "
+                        f"{(tmp_path / 'worker.err').read_text()[-2000:]}")
         time.sleep(rng.uniform(0.2, 1.5))         # a registration takes about 0.5 s
         os.kill(worker.pid, signal.SIGKILL)
         worker.wait(timeout=30)
+        errors.close()
         lines = audit.read_bytes().splitlines() if audit.exists() else []
         counts.append(len(lines))
         for line in lines[:-1]:
