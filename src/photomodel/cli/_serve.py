@@ -73,7 +73,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--opcua", type=int, default=None, metavar="PORT",
                    help="also serve the OPC UA face for PLCs on PORT "
                         "(opc.tcp://HOST:PORT/photomodel/, HOST as --host; needs the 'plc' "
-                        "extra; --token-file then gives the password of user 'photomodel')")
+                        "extra; with --token-file a client logs in with a token's label, or "
+                        "'photomodel', and the token as password; with --tls-cert only "
+                        "Basic256Sha256 SignAndEncrypt)")
     p.add_argument("--log-level", default="info",
                    choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(run=run)
