@@ -84,12 +84,13 @@ class AuditLog:
 
     def write(self, action: str, *, actor: Actor | None = None, model: str | None = None,
               sha256: str | None = None, status: int | str | None = None,
-              detail: str | None = None, fsync: bool = True) -> None:
+              detail: str | None = None, fsync: bool | None = None) -> None:
         """Append one event; ``actor`` defaults to :data:`ACTOR`'s. An event that cannot be
         written is logged as an error (the request it records is not failed by it).
-        ``fsync=False`` (refused requests, which a client can send by the thousand) still
-        writes the line at once, safe from a crash of the process, but not from a power
-        cut."""
+        ``fsync`` defaults to every action but ``refused``: refusals, which a client can send
+        by the thousand, are still written at once, safe from a crash of the process, but
+        not forced to disk against a power cut."""
+        fsync = action != "refused" if fsync is None else fsync
         actor = actor or ACTOR.get() or Actor(None)
         event = {"time": dt.datetime.now(dt.UTC).isoformat(timespec="milliseconds"),
                  "client": actor.client, "role": actor.role, "user": actor.user,

@@ -160,9 +160,7 @@ class Guard:
             detail = self._quieted(actor.client or "unknown", detail)
             if detail is None:
                 return
-        # refusals come by the thousand: written at once, not each forced to disk
-        self.audit.write(action, actor=actor, status=status, detail=detail,
-                         fsync=action != "refused")
+        self.audit.write(action, actor=actor, status=status, detail=detail)
 
     def _quieted(self, client: str, detail: str | None) -> str | None:
         """The detail of a 429 to log for ``client`` (its first in a throttle window, with

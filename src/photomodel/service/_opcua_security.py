@@ -188,9 +188,8 @@ def _status_name(code: int) -> str:
 
 def record(audit: AuditLog | None, action: str, actor: Actor, status: str | None = None,
             detail: str | None = None) -> None:
-    if audit is not None:       # refusals come by the thousand: not each to disk
-        audit.write(action, actor=actor, status=status, detail=detail,
-                    fsync=action != "refused")
+    if audit is not None:
+        audit.write(action, actor=actor, status=status, detail=detail)
 
 
 @functools.cache
