@@ -94,6 +94,15 @@ class _Who:
 
 
 @dataclass
+class _Allowed:
+    """An allowed request: who it is, and the browser session it came by (None: a bearer
+    token, or no authentication)."""
+
+    actor: Actor
+    session: Session | None = None
+
+
+@dataclass
 class _Refusal:
     """A refused request: its status, the one-line reason, who it was, extra headers."""
 
@@ -179,12 +188,12 @@ class Guard:
                "are counted, not logged"
 
     def _refusal(self, scope: Scope, headers: dict[bytes, bytes], face: str
-                 ) -> _Refusal | Actor:
-        """The actor of an allowed request, or its refusal."""
+                 ) -> _Refusal | _Allowed:
+        """An allowed request's actor and browser session, or its refusal."""
         client = _client(scope)
         nobody = Actor(client, None, None, face)
         if self.tokens is None:
-            return Actor(client, "admin", None, face)
+            return _Allowed(Actor(client, "admin", None, face))
         wait = self.throttle.retry_after_s(client)
         if wait is not None:
             return _Refusal(429, f"too many failed authentications from {client}; try again "
@@ -206,7 +215,7 @@ class Guard:
                 headers.get(CSRF_HEADER.lower().encode(), b""), who.session.csrf.encode()):
             return _Refusal(403, f"missing or wrong CSRF token (a browser's {method} carries "
                                  f"the {CSRF_HEADER} header that GET /session gives)", actor)
-        return actor
+        return _Allowed(actor, who.session)
 
     # -- ASGI ---------------------------------------------------------------------------
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -219,8 +228,8 @@ class Guard:
 
     async def _websocket(self, scope: Scope, receive: Receive, send: Send) -> None:
         decided = self._refusal(scope, _headers(scope), "websocket")
-        if isinstance(decided, Actor):
-            ACTOR.set(decided)
+        if isinstance(decided, _Allowed):
+            ACTOR.set(decided.actor)
             await self.app(scope, receive, send)
             return
         self._record("refused", decided.actor, decided.status,
@@ -256,10 +265,10 @@ class Guard:
     async def _guarded(self, scope: Scope, receive: Receive, send: Send) -> None:
         headers = _headers(scope)
         decided = self._refusal(scope, headers, "http")
-        if isinstance(decided, Actor):
-            ACTOR.set(decided)
+        if isinstance(decided, _Allowed):
+            ACTOR.set(decided.actor)
             if scope["path"] == "/session":
-                await self._session_info(scope, headers, decided)(scope, receive, send)
+                await self._session_info(decided)(scope, receive, send)
             else:
                 await self.app(scope, receive, send)
             return
@@ -272,13 +281,9 @@ class Guard:
         await error_response(decided.status, decided.message, decided.headers)(
             scope, receive, send)
 
-    def _session_info(self, scope: Scope, headers: dict[bytes, bytes], actor: Actor
-                      ) -> Response:
+    def _session_info(self, allowed: _Allowed) -> Response:
         """``GET /session``: who this is, the role, and a browser session's CSRF token."""
-        session = None
-        if self.tokens is not None and b"authorization" not in headers:
-            session_id = _cookie(headers, SESSION_COOKIE)
-            session = self.sessions.get(session_id, self.tokens()) if session_id else None
+        actor, session = allowed.actor, allowed.session
         return JSONResponse({"user": actor.user, "role": actor.role,
                              "csrf": session.csrf if session else None,
                              "login": self.tokens is not None},
