@@ -5,7 +5,6 @@ Prometheus metrics; who may ask is :mod:`photomodel.service._guard`'s. The work 
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import re
 import threading
@@ -24,13 +23,16 @@ from starlette.datastructures import FormData, UploadFile
 from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 from starlette.requests import ClientDisconnect, Request
-from starlette.responses import JSONResponse, Response
+from starlette.responses import Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.types import ASGIApp, Message, Scope
 
 from photomodel.errors import InputError, PhotomodelError
 from photomodel.service._cell import CellService, Conflict, NotFound, Unavailable
 from photomodel.service._guard import Guard, drain
+from photomodel.service._json import JSONAnswer as _JSON
+from photomodel.service._json import error_response as _error
+from photomodel.service._json import finite as _finite
 from photomodel.service._source import SourceError
 from photomodel.service._track_socket import track_endpoint
 
@@ -43,28 +45,6 @@ _LATENCY_BUCKETS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0
 
 class _TooLarge(Exception):
     """A request body over the configured bound."""
-
-
-def _finite(obj: Any) -> Any:
-    """``obj`` with every NaN or infinity as None (JSON has no NaN)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    return obj
-
-
-class _JSON(JSONResponse):
-    """A JSON answer; NaN and infinities (a score of nothing found) are sent as null."""
-
-    def render(self, content: Any) -> bytes:
-        return json.dumps(_finite(content), allow_nan=False, separators=(",", ":")).encode()
-
-
-def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
-    return _JSON({"error": message}, status_code=status, headers=headers)
 
 
 def _endpoint(path: str) -> str:

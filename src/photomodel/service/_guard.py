@@ -26,6 +26,7 @@ from photomodel.service._auth import (
     allows,
     required_role,
 )
+from photomodel.service._json import error_response
 
 __all__ = ["CSRF_HEADER", "SESSION_COOKIE", "Guard"]
 
@@ -39,12 +40,6 @@ _LOGIN_PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8">
 <form method="post" action="login"><input name="token" type="password" autofocus size="40"
 autocomplete="current-password"> <button type="submit">Open</button>
 <span style="color: #b91c1c">{note}</span></form></body></html>"""
-
-
-def error_response(status: int, message: str, headers: dict[str, str] | None = None
-                   ) -> JSONResponse:
-    """``{"error": message}`` with ``status``."""
-    return JSONResponse({"error": message}, status_code=status, headers=headers)
 
 
 async def drain(receive: Receive, cap_bytes: int) -> None:
