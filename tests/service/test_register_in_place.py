@@ -16,6 +16,7 @@ import httpx
 import numpy as np
 import pytest
 from numpy.typing import NDArray
+from service_helpers import json_error as _error
 
 from photomodel.camera import save_stereo
 from photomodel.errors import InputError
@@ -84,13 +85,6 @@ def _files(pngs: dict[str, bytes], *names: str) -> dict[str, tuple[str, bytes, s
     return {n: (f"{n}.png", pngs[n], "image/png") for n in names}
 
 
-def _error(response: httpx.Response, status: int, *mentions: str) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert set(body) == {"error"}, body
-    for text in mentions:
-        assert text in body["error"], (text, body)
-    return body["error"]
 
 
 def _post(url: str, data: dict[str, str], files: dict[str, Any] | None = None

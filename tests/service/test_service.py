@@ -14,6 +14,7 @@ import cv2
 import httpx
 import numpy as np
 import pytest
+from service_helpers import json_error as _error
 
 import photomodel as pm
 from photomodel.service import CellService, ServiceConfig, ServiceThread
@@ -32,13 +33,6 @@ def _locate(url: str, model: str, scene: Path, seed: int | None = 1, **kw: objec
     return httpx.post(f"{url}/locate", data=data, files=_pair(scene), timeout=TIMEOUT_S, **kw)
 
 
-def _error(response: httpx.Response, status: int, *mentions: str) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert set(body) == {"error"}, body
-    for text in mentions:
-        assert text in body["error"], (text, body)
-    return body["error"]
 
 
 def test_health_and_models(service, cell_data) -> None:

@@ -15,6 +15,7 @@ import cv2
 import httpx
 import numpy as np
 import pytest
+from service_helpers import json_error as _error
 
 import photomodel as pm
 from photomodel.cli import main
@@ -24,14 +25,6 @@ from photomodel.service._source import open_source
 TIMEOUT_S = 120.0
 
 
-def _error(response: httpx.Response, status: int, *mentions: str) -> str:
-    assert response.status_code == status, response.text
-    assert "Traceback" not in response.text
-    body = response.json()
-    assert set(body) == {"error"}, body
-    for text in mentions:
-        assert text in body["error"], (text, body)
-    return body["error"]
 
 
 def _video(path: Path, frames: int, fps: float = 30.0) -> Path:
