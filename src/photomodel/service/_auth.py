@@ -63,6 +63,15 @@ class Credential:
     token: str = field(repr=False)
 
 
+def check_token(token: str, source: object) -> str:
+    """``token`` when it can be the service's one token (at least :data:`MIN_TOKEN_CHARS`
+    printable characters, no spaces); InputError naming ``source`` otherwise."""
+    if len(token) < MIN_TOKEN_CHARS or any(c.isspace() or not c.isprintable() for c in token):
+        raise InputError(source, f"expected one token of at least {MIN_TOKEN_CHARS} printable "
+                                 "characters without spaces")
+    return token
+
+
 class TokenBook:
     """The credentials of a token file; :meth:`find` compares a token with every one in
     constant time."""

@@ -29,7 +29,7 @@ from photomodel.library import LibraryEntry, ModelLibrary, check_model_name
 from photomodel.locate import Locator, draw_overlay, draw_table_overlay, load_threshold
 from photomodel.model import DEFAULT_STATION_DISTANCE_MM, PhotoModel, build_model
 from photomodel.service._audit import AuditLog, file_sha256
-from photomodel.service._auth import TokenBook, TokenFile
+from photomodel.service._auth import TokenBook, TokenFile, check_token
 from photomodel.service._camera_feed import CameraFeed
 from photomodel.service._results import Latencies, ResultRing
 from photomodel.service._ros import pose_stamped
@@ -735,8 +735,5 @@ def read_token(path: Path) -> str:
     """The bearer token in ``path`` (one line, at least 16 characters, no spaces)."""
     from photomodel._limits import read_capped
 
-    text = read_capped(path, "token file", 4096).decode("utf-8", "replace").strip()
-    if len(text) < 16 or any(c.isspace() or not c.isprintable() for c in text):
-        raise InputError(path, "expected one token of at least 16 printable characters "
-                               "without spaces")
-    return text
+    return check_token(read_capped(path, "token file", 4096).decode("utf-8", "replace")
+                       .strip(), path)

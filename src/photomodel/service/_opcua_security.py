@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from photomodel.errors import InputError
 from photomodel.service._audit import Actor, AuditLog
-from photomodel.service._auth import Credential, Throttle, TokenBook, allows
+from photomodel.service._auth import Credential, Throttle, TokenBook, allows, check_token
 
 if TYPE_CHECKING:
     from cryptography import x509
@@ -36,20 +36,12 @@ SECURE_POLICY = "Basic256Sha256_SignAndEncrypt"
 certificate."""
 
 
-def _check_token(token: str | None) -> str | None:
-    if token is not None and (len(token) < 16 or any(c.isspace() or not c.isprintable()
-                                                     for c in token)):
-        raise InputError("token", "expected one token of at least 16 printable characters "
-                                  "without spaces")
-    return token
-
-
 def check_tokens(token: str | None, tokens: TokenBook | Callable[[], TokenBook] | None
                   ) -> Callable[[], TokenBook] | None:
     """What gives the current credentials, or None (no login): ``tokens`` as it is (a
     callable) or wrapped (a book), or ``token`` as one ``admin`` credential with the label
     :data:`USER` (so that user name is the only one, as in earlier versions)."""
-    token = _check_token(token)
+    token = None if token is None else check_token(token, "token")
     if token is not None and tokens is not None:
         raise InputError("token", "give token or tokens, not both")
     if token is not None:
